@@ -1,0 +1,179 @@
+"""Reading and writing Recordings: CSV, Parquet; atomic output files.
+
+Every reader builds its Recording through :meth:`Recording.from_arrays`, so the same
+validation rules apply whatever the format. Every writer goes through
+:func:`atomic_path`: output appears complete or not at all.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from .errors import InputError
+from .recording import REQUIRED, SIGNALS, Recording
+
+COLUMNS = ("t",) + SIGNALS
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
+
+    On any exception the temporary file is removed and ``path`` is left untouched,
+    so no half-written output is ever visible.
+    """
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+
+
+def write_text(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` to ``path`` atomically (UTF-8)."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+
+
+def _check_path(path: str | os.PathLike[str]) -> Path:
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"{p}: no such file")
+    if p.is_dir():
+        raise InputError(f"{p}: is a directory, expected a recording file")
+    if p.stat().st_size == 0:
+        raise InputError(f"{p}: empty file")
+    return p
+
+
+def read_recording(path: str | os.PathLike[str], *, warn: bool = True) -> Recording:
+    """Read a Recording from a ``.csv`` or ``.parquet`` file.
+
+    Parameters
+    ----------
+    path : path-like
+        File with columns ``t, PV, OP`` and optionally ``SP``, ``MV``.
+    warn : bool
+        Print interpolation warnings on stderr.
+
+    Raises
+    ------
+    InputError
+        Missing path, directory, empty or binary file, missing columns, text in a
+        numeric column, and every rule of :meth:`Recording.from_arrays`.
+    """
+    p = _check_path(path)
+    suffix = p.suffix.lower()
+    if suffix == ".parquet":
+        return _read_parquet(p, warn=warn)
+    if suffix in (".csv", ".txt", ""):
+        return _read_csv(p, warn=warn)
+    raise InputError(f"{p}: unknown format {suffix!r}; use .csv or .parquet")
+
+
+def _read_csv(p: Path, *, warn: bool) -> Recording:
+    head = p.read_bytes()[:4096]
+    if b"\x00" in head:
+        raise InputError(f"{p}: binary data, not a CSV text file")
+    try:
+        frame = pd.read_csv(p, dtype=str, keep_default_na=False, skipinitialspace=True)
+    except UnicodeDecodeError:
+        raise InputError(f"{p}: not UTF-8 text, not a CSV file") from None
+    except pd.errors.EmptyDataError:
+        raise InputError(f"{p}: empty file") from None
+    except pd.errors.ParserError as exc:
+        raise InputError(f"{p}: not a valid CSV file ({str(exc).splitlines()[0]})") from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    return _frame_to_recording(frame, str(p), first_row=2, warn=warn, text=True)
+
+
+def _read_parquet(p: Path, *, warn: bool) -> Recording:
+    try:
+        frame = pd.read_parquet(p)
+    except Exception as exc:  # pyarrow raises several types for corrupt files
+        raise InputError(f"{p}: not a readable Parquet file ({type(exc).__name__})") from None
+    meta: dict[str, Any] = {}
+    return _frame_to_recording(frame, str(p), first_row=0, warn=warn, text=False, meta=meta)
+
+
+def _frame_to_recording(
+    frame: pd.DataFrame,
+    source: str,
+    *,
+    first_row: int,
+    warn: bool,
+    text: bool,
+    meta: Mapping[str, Any] | None = None,
+) -> Recording:
+    missing = [c for c in REQUIRED if c not in frame.columns]
+    if missing:
+        raise InputError(
+            f"{source}: missing column(s) {', '.join(missing)}; found "
+            f"{', '.join(map(str, frame.columns)) or 'none'}"
+        )
+    cols: dict[str, np.ndarray] = {}
+    for name in COLUMNS:
+        if name not in frame.columns:
+            continue
+        col = frame[name]
+        if text:
+            s = col.astype(str).str.strip()
+            empty = s.isin(["", "nan", "NaN", "NA", "null", "None"])
+            num = pd.to_numeric(s.where(~empty, None), errors="coerce")
+            bad = num.isna() & ~empty
+            if bad.any():
+                i = int(np.argmax(bad.to_numpy()))
+                raise InputError(
+                    f"{source}: row {i + first_row}, column {name}: not a number "
+                    f"({s.iloc[i][:20]!r})"
+                )
+            cols[name] = num.to_numpy(dtype=float)
+        else:
+            try:
+                cols[name] = pd.to_numeric(col, errors="raise").to_numpy(dtype=float)
+            except (ValueError, TypeError):
+                raise InputError(f"{source}: column {name} is not numeric") from None
+    return Recording.from_arrays(
+        cols["t"],
+        cols["PV"],
+        cols["OP"],
+        SP=cols.get("SP"),
+        MV=cols.get("MV"),
+        meta=meta,
+        source=source,
+        first_row=first_row,
+        warn=warn,
+    )
+
+
+def write_recording(rec: Recording, path: str | os.PathLike[str]) -> Path:
+    """Write a Recording to ``.csv`` or ``.parquet`` atomically.
+
+    CSV is written with full float precision (``repr`` round-trip) so that a
+    reloaded Recording is bit-identical. Returns the path written.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in (".csv", ".parquet"):
+        raise InputError(f"{p}: unknown output format {suffix!r}; use .csv or .parquet")
+    frame = rec.to_frame()
+    with atomic_path(p) as tmp:
+        if suffix == ".csv":
+            frame.to_csv(tmp, index=False, float_format="%.17g", lineterminator="\n")
+        else:
+            frame.to_parquet(tmp, index=False)
+    return p

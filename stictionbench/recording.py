@@ -1,0 +1,265 @@
+"""The one data type every stage passes around: a sampled control-loop record.
+
+A :class:`Recording` holds uniformly sampled ``t, SP, PV, OP`` and an optional valve
+position ``MV``, the sample time ``Ts`` and free-form metadata (source, case, seed, true
+parameters when simulated). Validation happens once, in :meth:`Recording.from_arrays`;
+nothing downstream re-checks shapes.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+
+SIGNALS = ("SP", "PV", "OP", "MV")
+REQUIRED = ("t", "PV", "OP")
+MIN_SAMPLES = 100
+MAX_INTERPOLATED_GAP = 5
+UNIFORM_TOLERANCE = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """A uniformly sampled closed-loop record.
+
+    Attributes
+    ----------
+    t : ndarray
+        Time in seconds, strictly increasing and uniform (``Ts`` apart within 1 %).
+    PV, OP : ndarray
+        Process variable and controller output (OP usually in % of span).
+    SP : ndarray or None
+        Set point; ``None`` when the source does not have it.
+    MV : ndarray or None
+        Valve position (stem travel, % of span); ``None`` when not recorded.
+    Ts : float
+        Sample time in seconds.
+    meta : Mapping
+        Read-only metadata: ``source``, ``case``, ``seed``, true parameters, warnings.
+
+    Build one with :meth:`from_arrays` (which validates); the constructor itself
+    trusts its arguments.
+    """
+
+    t: np.ndarray
+    PV: np.ndarray
+    OP: np.ndarray
+    SP: np.ndarray | None = None
+    MV: np.ndarray | None = None
+    Ts: float = 1.0
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    # ------------------------------------------------------------------ building
+    @classmethod
+    def from_arrays(
+        cls,
+        t: Any,
+        PV: Any,
+        OP: Any,
+        SP: Any = None,
+        MV: Any = None,
+        *,
+        meta: Mapping[str, Any] | None = None,
+        source: str = "<arrays>",
+        first_row: int = 0,
+        warn: bool = True,
+    ) -> Recording:
+        """Validate arrays and build a Recording.
+
+        Parameters
+        ----------
+        t, PV, OP : array_like
+            Time (s), process variable and controller output; required.
+        SP, MV : array_like, optional
+            Set point and valve position.
+        meta : Mapping, optional
+            Metadata stored read-only on the Recording.
+        source : str
+            Name used in error messages (a file path for loaded data).
+        first_row : int
+            Row number of the first sample in ``source`` (for messages; a CSV with a
+            header has its first sample on line 2).
+        warn : bool
+            Print a warning on stderr when short gaps are interpolated.
+
+        Returns
+        -------
+        Recording
+
+        Raises
+        ------
+        InputError
+            On ±inf, non-monotone or non-uniform time, fewer than 100 samples, a gap
+            of missing values longer than 5 samples, or arrays of different lengths.
+            Gaps of up to 5 missing samples are interpolated linearly.
+        """
+        arrays: dict[str, np.ndarray | None] = {}
+        raw = {"t": t, "SP": SP, "PV": PV, "OP": OP, "MV": MV}
+        n = None
+        for name, value in raw.items():
+            if value is None:
+                arrays[name] = None
+                continue
+            try:
+                arr = np.asarray(value, dtype=float).reshape(-1)
+            except (TypeError, ValueError) as exc:
+                raise InputError(f"{source}: column {name} is not numeric ({exc})") from None
+            if n is None:
+                n = arr.size
+            elif arr.size != n:
+                raise InputError(
+                    f"{source}: column {name} has {arr.size} samples, expected {n}"
+                )
+            arrays[name] = arr.copy()
+        assert n is not None
+        if n < MIN_SAMPLES:
+            raise InputError(f"{source}: {n} samples; at least {MIN_SAMPLES} are needed")
+        notes: list[str] = []
+        for name, arr in arrays.items():
+            if arr is None:
+                continue
+            bad = np.isinf(arr)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise InputError(
+                    f"{source}: row {i + first_row}, column {name}: infinite value"
+                )
+            missing = np.isnan(arr)
+            if missing.any():
+                if name == "t":
+                    i = int(np.argmax(missing))
+                    raise InputError(f"{source}: row {i + first_row}, column t: missing time")
+                _fill_gaps(arr, missing, name, source, first_row, notes)
+        tt = arrays["t"]
+        assert tt is not None
+        dt = np.diff(tt)
+        if np.any(dt <= 0):
+            i = int(np.argmax(dt <= 0)) + 1
+            raise InputError(
+                f"{source}: row {i + first_row}, column t: time is not strictly increasing"
+            )
+        Ts = float(np.median(dt))
+        off = np.abs(dt - Ts) > UNIFORM_TOLERANCE * Ts
+        if off.any():
+            i = int(np.argmax(off)) + 1
+            raise InputError(
+                f"{source}: row {i + first_row}, column t: sampling is not uniform "
+                f"(step {dt[i - 1]:g} s vs median {Ts:g} s); resample to a uniform grid "
+                f"first, e.g. pandas DataFrame.resample or numpy.interp"
+            )
+        if warn:
+            for note in notes:
+                print(f"stictionbench: warning: {note}", file=sys.stderr)
+        md = dict(meta or {})
+        md.setdefault("source", source)
+        if notes:
+            md["warnings"] = tuple(md.get("warnings", ())) + tuple(notes)
+        for arr in arrays.values():
+            if arr is not None:
+                arr.setflags(write=False)
+        return cls(
+            t=tt,
+            PV=arrays["PV"],
+            OP=arrays["OP"],
+            SP=arrays["SP"],
+            MV=arrays["MV"],
+            Ts=Ts,
+            meta=MappingProxyType(md),
+        )
+
+    # ------------------------------------------------------------------ access
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Names of the signals present, in the order ``t, SP, PV, OP, MV``."""
+        return ("t",) + tuple(s for s in SIGNALS if getattr(self, s) is not None)
+
+    def signal(self, name: str) -> np.ndarray:
+        """Return a signal by name, with a clear error when it is absent.
+
+        Parameters
+        ----------
+        name : {"t", "SP", "PV", "OP", "MV"}
+
+        Raises
+        ------
+        InputError
+            When the name is unknown or the signal was not recorded.
+        """
+        if name not in ("t",) + SIGNALS:
+            raise InputError(f"unknown signal {name!r}; use one of t, SP, PV, OP, MV")
+        value = getattr(self, name)
+        if value is None:
+            raise InputError(
+                f"{self.meta.get('source', 'recording')}: signal {name} is not recorded"
+            )
+        return value
+
+    def to_frame(self):  # -> pandas.DataFrame
+        """Return the signals as a pandas DataFrame with columns ``t, SP, PV, OP[, MV]``."""
+        import pandas as pd
+
+        return pd.DataFrame({c: getattr(self, c) for c in self.columns})
+
+    def slice(self, start: int, stop: int) -> Recording:
+        """Return samples ``start:stop`` as a new Recording (no re-validation)."""
+        def cut(a: np.ndarray | None) -> np.ndarray | None:
+            return None if a is None else a[start:stop]
+
+        return Recording(
+            t=self.t[start:stop],
+            PV=self.PV[start:stop],
+            OP=self.OP[start:stop],
+            SP=cut(self.SP),
+            MV=cut(self.MV),
+            Ts=self.Ts,
+            meta=self.meta,
+        )
+
+    def __repr__(self) -> str:
+        src = self.meta.get("source", "?")
+        return (
+            f"Recording(n={len(self)}, Ts={self.Ts:g}, columns={','.join(self.columns)}, "
+            f"source={src!r})"
+        )
+
+
+def _fill_gaps(
+    arr: np.ndarray,
+    missing: np.ndarray,
+    name: str,
+    source: str,
+    first_row: int,
+    notes: list[str],
+) -> None:
+    """Interpolate runs of NaN up to MAX_INTERPOLATED_GAP long, in place."""
+    idx = np.flatnonzero(missing)
+    # split into runs of consecutive indices
+    breaks = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.r_[idx[0], idx[breaks + 1]]
+    ends = np.r_[idx[breaks], idx[-1]]
+    lengths = ends - starts + 1
+    long_ = lengths > MAX_INTERPOLATED_GAP
+    if long_.any():
+        j = int(np.argmax(long_))
+        raise InputError(
+            f"{source}: row {starts[j] + first_row}, column {name}: gap of {lengths[j]} "
+            f"missing values (at most {MAX_INTERPOLATED_GAP} are interpolated)"
+        )
+    if missing.all() or (~missing).sum() < 2:
+        raise InputError(f"{source}: column {name} has no values")
+    good = np.flatnonzero(~missing)
+    arr[missing] = np.interp(idx, good, arr[good])
+    notes.append(
+        f"{source}: column {name}: interpolated {idx.size} missing values in "
+        f"{starts.size} gap(s), first at row {starts[0] + first_row}"
+    )
