@@ -163,7 +163,7 @@ def _frame_to_recording(
 def write_recording(rec: Recording, path: str | os.PathLike[str]) -> Path:
     """Write a Recording to ``.csv`` or ``.parquet`` atomically.
 
-    CSV is written with full float precision (``repr`` round-trip) so that a
+    CSV is written with shortest round-trip float formatting so that a
     reloaded Recording is bit-identical. Returns the path written.
     """
     p = Path(path)
@@ -173,7 +173,7 @@ def write_recording(rec: Recording, path: str | os.PathLike[str]) -> Path:
     frame = rec.to_frame()
     with atomic_path(p) as tmp:
         if suffix == ".csv":
-            frame.to_csv(tmp, index=False, float_format="%.17g", lineterminator="\n")
+            frame.to_csv(tmp, index=False, lineterminator="\n")
         else:
             frame.to_parquet(tmp, index=False)
     return p

@@ -1,0 +1,5 @@
+"""Simulation blocks and the closed-loop kernel."""
+
+from .compose import simulate, simulate_config
+
+__all__ = ["simulate", "simulate_config"]
