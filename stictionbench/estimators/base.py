@@ -74,7 +74,8 @@ class EstimateResult:
         p = (prefix or self.method) + "_"
         out: dict[str, Any] = {p + "value": self.value, p + "decision": self.decision}
         for k, v in self.diagnostics.items():
-            if isinstance(v, (int, float, bool, str, np.integer, np.floating, np.bool_)) or v is None:
+            scalar = (int, float, bool, str, np.integer, np.floating, np.bool_)
+            if v is None or isinstance(v, scalar):
                 out[p + k] = _jsonable(v)
         return out
 

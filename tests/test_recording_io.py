@@ -1,0 +1,144 @@
+"""Recording validation and CSV/Parquet round trips, including every bad-input rule."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stictionbench import InputError, Recording
+from stictionbench.io import read_recording, write_recording
+
+
+def _frame_text(n=200, dt=1.0, extra=""):
+    rows = ["t,SP,PV,OP"]
+    for i in range(n):
+        rows.append(f"{i * dt},1,{np.sin(i / 7):.6f},{np.cos(i / 5):.6f}")
+    return "\n".join(rows) + "\n" + extra
+
+
+def test_round_trip_csv_and_parquet(tmp_path):
+    t = np.arange(300) * 0.5
+    rec = Recording.from_arrays(t, np.sin(t), np.cos(t), SP=np.zeros_like(t), MV=np.cos(t - 1))
+    for ext in ("csv", "parquet"):
+        p = write_recording(rec, tmp_path / f"r.{ext}")
+        back = read_recording(p)
+        assert back.columns == ("t", "SP", "PV", "OP", "MV")
+        for c in back.columns:
+            np.testing.assert_array_equal(getattr(back, c), getattr(rec, c))
+        assert back.Ts == pytest.approx(0.5)
+
+
+def test_optional_sp_and_mv(tmp_path):
+    p = tmp_path / "x.csv"
+    p.write_text("t,PV,OP\n" + "".join(f"{i},{i % 7},{i % 5}\n" for i in range(150)))
+    rec = read_recording(p)
+    assert rec.SP is None and rec.MV is None
+    with pytest.raises(InputError, match="MV is not recorded"):
+        rec.signal("MV")
+
+
+def test_missing_columns(tmp_path):
+    p = tmp_path / "bad.csv"
+    p.write_text("t,SP,PV\n" + "".join(f"{i},1,2\n" for i in range(150)))
+    with pytest.raises(InputError, match="missing column.*OP"):
+        read_recording(p)
+
+
+def test_text_in_numeric_column_names_row_and_column(tmp_path):
+    lines = _frame_text().splitlines()
+    parts = lines[11].split(",")
+    parts[2] = "oops"
+    lines[11] = ",".join(parts)
+    p = tmp_path / "bad.csv"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=r"row 12, column PV: not a number"):
+        read_recording(p)
+
+
+@pytest.mark.parametrize("value", ["inf", "-inf"])
+def test_infinite(tmp_path, value):
+    lines = _frame_text().splitlines()
+    parts = lines[21].split(",")
+    parts[3] = value
+    lines[21] = ",".join(parts)
+    p = tmp_path / "bad.csv"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=r"row 22, column OP: infinite"):
+        read_recording(p)
+
+
+def test_time_not_increasing_and_not_uniform():
+    t = np.arange(200.0)
+    x = np.sin(t)
+    t2 = t.copy()
+    t2[50] = t2[49]
+    with pytest.raises(InputError, match="row 50, column t: time is not strictly increasing"):
+        Recording.from_arrays(t2, x, x)
+    t3 = t.copy()
+    t3[100:] += 0.5
+    with pytest.raises(InputError, match="not uniform.*resample"):
+        Recording.from_arrays(t3, x, x)
+    t4 = t * (1 + 0.004 * np.sin(t))  # jitter below 1 % is accepted
+    Recording.from_arrays(np.cumsum(np.r_[0, np.diff(t4).clip(0.995, 1.005)]), x, x)
+
+
+def test_too_few_samples():
+    t = np.arange(99.0)
+    with pytest.raises(InputError, match="99 samples; at least 100"):
+        Recording.from_arrays(t, t, t)
+
+
+def test_short_gaps_interpolated_long_gap_error(tmp_path, capsys):
+    t = np.arange(200.0)
+    pv = np.sin(t / 9)
+    pv_gap = pv.copy()
+    pv_gap[30:35] = np.nan
+    rec = Recording.from_arrays(t, pv_gap, pv)
+    assert np.all(np.isfinite(rec.PV))
+    np.testing.assert_allclose(rec.PV[30:35], np.interp(t[30:35], t[[29, 35]], pv[[29, 35]]))
+    assert "interpolated 5 missing values" in capsys.readouterr().err
+    pv_gap[60:66] = np.nan
+    with pytest.raises(InputError, match="row 60, column PV: gap of 6"):
+        Recording.from_arrays(t, pv_gap, pv)
+    # from a CSV file: the message names the file row (header is row 1)
+    lines = _frame_text().splitlines()
+    for i in range(40, 47):
+        parts = lines[i + 1].split(",")
+        parts[3] = ""
+        lines[i + 1] = ",".join(parts)
+    p = tmp_path / "gap.csv"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=r"row 42, column OP: gap of 7"):
+        read_recording(p)
+
+
+def test_empty_binary_directory_missing(tmp_path):
+    empty = tmp_path / "empty.csv"
+    empty.write_text("")
+    with pytest.raises(InputError, match="empty file"):
+        read_recording(empty)
+    binary = tmp_path / "bin.csv"
+    binary.write_bytes(bytes(range(256)) * 20)
+    with pytest.raises(InputError, match="binary"):
+        read_recording(binary)
+    with pytest.raises(InputError, match="is a directory"):
+        read_recording(tmp_path)
+    with pytest.raises(InputError, match="no such file"):
+        read_recording(tmp_path / "nope.csv")
+    header_only = tmp_path / "h.csv"
+    header_only.write_text("t,PV,OP\n")
+    with pytest.raises(InputError, match="0 samples"):
+        read_recording(header_only)
+    bad_parquet = tmp_path / "x.parquet"
+    bad_parquet.write_text("not parquet at all")
+    with pytest.raises(InputError, match="not a readable Parquet"):
+        read_recording(bad_parquet)
+
+
+def test_recording_is_read_only():
+    t = np.arange(150.0)
+    rec = Recording.from_arrays(t, t, t)
+    with pytest.raises(ValueError):
+        rec.PV[0] = 3.0
+    with pytest.raises(AttributeError):
+        rec.Ts = 2.0  # type: ignore[misc]
