@@ -84,10 +84,11 @@ def simulate(
     ('t', 'SP', 'PV', 'OP', 'MV')
     """
     ov = list(overrides) + overrides_from_kwargs(kwargs)
+    cfg = config_for(case, ov)  # composed once per distinct override set (cached)
     if duration is not None:
-        ov.append(f"duration={duration}")
-    ov.append(f"seed={seed}")
-    return simulate_config(config_for(case, ov))
+        cfg.duration = duration
+    cfg.seed = seed
+    return simulate_config(cfg)
 
 
 def _number(cfg: DictConfig, key: str, *, positive: bool = True) -> float:

@@ -77,6 +77,14 @@ def run_loop(sp, noise, dist, n_sub, dt, rec_every, proc, ctrl, kind, vp, vstate
     r = 0
     for n in range(N):
         pvm = ym + noise[n]
+        # all signals are sampled at the same instant, before the controller executes:
+        # OP is the output held since the previous execution, MV its valve's response
+        if n % rec_every == 0:
+            out[r, 0] = sp[n]
+            out[r, 1] = pvm
+            out[r, 2] = op
+            out[r, 3] = mv
+            r += 1
         e = sp[n] - pvm
         if n > 0:
             op = op + kc * ((e - e_prev) + hc / ti * e)
@@ -85,12 +93,6 @@ def run_loop(sp, noise, dist, n_sub, dt, rec_every, proc, ctrl, kind, vp, vstate
             elif op > hi:
                 op = hi
         e_prev = e
-        if n % rec_every == 0:
-            out[r, 0] = sp[n]
-            out[r, 1] = pvm
-            out[r, 2] = op
-            out[r, 3] = mv
-            r += 1
         if kind != PHYSICAL:
             mv = _clamp_travel(kind, valve_model_step(kind, op, vstate, vp, hc),
                                vstate, vp, tlo, thi)

@@ -1,0 +1,1 @@
+"""Paper-style tables (pandas → Markdown/CSV) and figures (matplotlib → PNG)."""

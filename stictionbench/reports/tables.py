@@ -1,0 +1,42 @@
+"""Tables: a pandas DataFrame written as Markdown and CSV, atomically and reproducibly."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from ..io import write_text
+
+
+def _fmt(v: object, digits: int = 4) -> str:
+    if isinstance(v, bool) or v is None:
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "—"
+        if v != 0 and (abs(v) < 1e-3 or abs(v) >= 1e5):
+            return f"{v:.{digits}g}"
+        return f"{v:.{digits}g}" if abs(v) < 1 else f"{v:.{digits}g}"
+    return str(v)
+
+
+def to_markdown(df: pd.DataFrame, digits: int = 4) -> str:
+    """Render a DataFrame as a GitHub Markdown table (no optional dependency)."""
+    cols = [str(c) for c in df.columns]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    for row in df.itertuples(index=False):
+        lines.append("| " + " | ".join(_fmt(v, digits).replace("|", "\\|") for v in row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def write_table(df: pd.DataFrame, stem: str | Path, *, title: str = "", note: str = "",
+                digits: int = 4) -> tuple[Path, Path]:
+    """Write ``stem.md`` (title, table, note) and ``stem.csv`` (full precision)."""
+    stem = Path(stem)
+    md = (f"# {title}\n\n" if title else "") + to_markdown(df, digits) + (
+        f"\n{note.strip()}\n" if note else "")
+    write_text(stem.with_suffix(".md"), md)
+    write_text(stem.with_suffix(".csv"), df.to_csv(index=False, lineterminator="\n"))
+    return stem.with_suffix(".md"), stem.with_suffix(".csv")
