@@ -9,7 +9,10 @@ __all__ = ["InputError", "Recording", "__version__", "simulate"]
 
 
 def simulate(case: str = "stiction", duration: float | None = None, seed: int = 0, **overrides):
-    """Simulate a closed loop from the Hydra configs; see :func:`stictionbench.sim.compose.simulate`."""
+    """Simulate a closed loop from the Hydra configs.
+
+    See :func:`stictionbench.sim.compose.simulate` for the parameters.
+    """
     from .sim.compose import simulate as _simulate
 
     return _simulate(case=case, duration=duration, seed=seed, **overrides)

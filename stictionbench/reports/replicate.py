@@ -29,12 +29,15 @@ from ..sim.compose import simulate
 from .figures import new_figure, save_png
 from .tables import to_markdown, write_table
 
+NON_STICTION = ("linear", "tight", "disturbance")
 CASE_TITLES = {
     "linear": "PI controller, linear valve",
     "tight": "tightly tuned controller",
     "disturbance": "oscillatory disturbance",
     "stiction": "valve stiction",
 }
+METHOD_TITLES = {"xcorr": "Cross-correlation", "xcum": "Cross-cumulant"}
+TABLE_NUMBER = {"linear": 3, "tight": 4, "disturbance": 5, "stiction": 6}
 PAPER_TABLE = {"linear": "III", "tight": "IV", "disturbance": "V", "stiction": "VI"}
 PAPER_REMARKS = {
     "linear": ["Oscillations are not available",
@@ -286,8 +289,7 @@ def figures(results: list[CaseResult], cfg: Any, fig_dir: Path) -> list[Path]:
                                  + (" (edge of window)" if d["at_edge"] else ""))
                 ax.set(ylabel="cumulant model coefficient a(k)")
             ax.set(xlabel=f"lag (samples of {r.rec.Ts:g} s); positive: MV lags CO",
-                   title=f"Fig. {n} {'Cross-correlation' if method == 'xcorr' else 'Cross-cumulant'}"
-                         f": process with {names[case]}")
+                   title=f"Fig. {n} {METHOD_TITLES[method]}: process with {names[case]}")
             ax.legend()
             paths.append(save_png(fig, fig_dir / f"fig{n:02d}.png"))
             n += 1
@@ -449,7 +451,7 @@ def replication_md(results: list[CaseResult], t7: pd.DataFrame, summ: pd.DataFra
     for c in cfg.cases:
         lines.append(f"- Table {PAPER_TABLE[c]} ({CASE_TITLES[c]}): {agree[c]} of "
                      f"{total[c]} remarks agree with the paper "
-                     f"([table](tables/table{ {'linear': 3, 'tight': 4, 'disturbance': 5, 'stiction': 6}[c]}.md)).")
+                     f"([table](tables/table{TABLE_NUMBER[c]}.md)).")
         t = remark_tables[c]
         for _, row in t[~t["agrees"]].iterrows():
             lines.append(f"  - differs: *{row['Responses']}*: paper '{row['Remarks (paper)']}', "
@@ -466,7 +468,7 @@ def replication_md(results: list[CaseResult], t7: pd.DataFrame, summ: pd.DataFra
         "- **Units.** HOSA's `tder`/`tde` return delays in *samples*. The paper's "
         "cross-correlation values (|d| < 0.006) are fractions of one sample; our "
         "non-stiction cases land in the same range "
-        f"({', '.join(f'{c}: {by[c].xcorr.value:+.4f}' for c in ('linear', 'tight', 'disturbance'))} "
+        f"({', '.join(f'{c}: {by[c].xcorr.value:+.4f}' for c in NON_STICTION)} "
         "samples), i.e. *no delay*, as the paper says.",
         f"- **Stiction, cross-correlation.** We get {by['stiction'].xcorr.value:+.2f} samples "
         f"({by['stiction'].xcorr.value * Ts:+.1f} s), the paper +0.0046. In a closed loop CO "

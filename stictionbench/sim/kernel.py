@@ -97,10 +97,16 @@ def run_loop(sp, noise, dist, n_sub, dt, rec_every, proc, ctrl, kind, vp, vstate
             mv = _clamp_travel(kind, valve_model_step(kind, op, vstate, vp, hc),
                                vstate, vp, tlo, thi)
         for _j in range(n_sub):
+            mv_in = mv
             if kind == PHYSICAL:
+                mv_old = mv
                 mv = _clamp_travel(kind, valve_model_step(kind, op, vstate, vp, dt),
                                    vstate, vp, tlo, thi)
-            flow = characteristic(mv, ccode, R) - flow0
+                # the stem moves continuously within the sub-step: feed the process the
+                # (trapezoidal) mean position, not the end value, so that a fast slip
+                # does not reach the process half a sub-step early
+                mv_in = 0.5 * (mv_old + mv)
+            flow = characteristic(mv_in, ccode, R) - flow0
             head = (head + 1) % nb
             buf[head] = flow
             u_new = buf[(head - d) % nb]
