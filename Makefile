@@ -23,7 +23,7 @@ replicate: venv
 	$(BIN)/stictionbench replicate
 
 bench: venv
-	$(BIN)/python -m pytest benchmarks -q -m "benchmark" -p no:cacheprovider --benchmark-columns=min,median,mean,rounds
+	$(BIN)/python -m pytest benchmarks -q -s -m "benchmark" -p no:cacheprovider --benchmark-columns=min,median,mean,rounds
 
 lint: venv
 	$(BIN)/ruff check stictionbench tests benchmarks experiments

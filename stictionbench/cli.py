@@ -10,11 +10,17 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from importlib import import_module
 from pathlib import Path
 
 from .errors import InputError
 
 EXIT_BAD_INPUT = 2
+
+#: modules that add a sub-command: each has ``add_command(subparsers)`` which adds its
+#: parser and sets ``func`` (one module per line)
+COMMAND_MODULES: tuple[str, ...] = (
+)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -135,6 +141,8 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("replicate", help="regenerate the paper's tables and figures")
     r.add_argument("overrides", nargs="*", help="Hydra overrides of conf/experiment/paper.yaml")
     r.set_defaults(func=cmd_replicate)
+    for name in COMMAND_MODULES:
+        import_module(name).add_command(sub)
     return p
 
 
