@@ -1,0 +1,199 @@
+"""Fitting hypotheses: a coarse global grid, Nelder–Mead refinement (scipy.optimize),
+linear least squares for gains and sinusoid coefficients, and profile-likelihood
+parameter intervals."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.optimize import minimize
+from scipy.stats import chi2
+
+from .hypotheses import Context, Hypothesis
+from .openloop import highpass
+
+
+@dataclass
+class Fit:
+    """One fitted hypothesis."""
+
+    name: str
+    p: np.ndarray
+    beta: np.ndarray
+    cost_train: float
+    params: dict[str, Any]
+    n_params: int
+    resid: np.ndarray = field(repr=False)
+    pred: np.ndarray = field(repr=False)
+    intervals: dict[str, list[float]] = field(default_factory=dict)
+    evaluations: int = 0
+    mse_val: float = math.nan
+    nrmse_val: float = math.nan
+    n_eff_val: float = math.nan
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+class Problem:
+    """The data of one diagnosis: high-passed PV, training and validation rows."""
+
+    def __init__(self, ctx: Context, f_hp: float | None, train: slice, val: slice) -> None:
+        self.ctx = ctx
+        self.f_hp = f_hp
+        self.y = highpass(ctx.pv, ctx.Ts, f_hp)
+        self.train = train
+        self.val = val
+
+    def evaluate(self, h: Hypothesis, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        """Return ``(train MSE, linear coefficients, high-passed prediction)``."""
+        X = highpass(h.regressors(self.ctx, p), self.ctx.Ts, self.f_hp)
+        if X.ndim == 1:
+            X = X[:, None]
+        Xt, yt = X[self.train], self.y[self.train]
+        beta, *_ = np.linalg.lstsq(Xt, yt, rcond=None)
+        pred = X @ beta
+        r = yt - pred[self.train]
+        return float(np.mean(r * r)), beta, pred
+
+
+def n_effective(r: np.ndarray) -> float:
+    """Effective number of independent samples of a residual (AR(1) approximation)."""
+    r = r - r.mean()
+    den = float(np.dot(r, r))
+    if den <= 0 or r.size < 3:
+        return float(r.size)
+    rho = float(np.dot(r[1:], r[:-1]) / den)
+    rho = min(max(rho, 0.0), 0.95)
+    return float(max(10.0, r.size * (1 - rho) / (1 + rho)))
+
+
+def _to_free(h: Hypothesis, ctx: Context, p: np.ndarray) -> np.ndarray:
+    """Search coordinates of the continuous parameters (log scale but for dead time)."""
+    q = p[: len(h.params)]
+    return np.log(np.maximum(q, 1e-12)) if h.name != "dead_time" else q.copy()
+
+
+def _from_free(h: Hypothesis, ctx: Context, z: np.ndarray,
+               fixed: np.ndarray | None = None) -> np.ndarray:
+    """Inverse of :func:`_to_free`, clipped to the bounds; ``fixed`` supplies the
+    discrete trailing entries of the parameter vector (e.g. a stop rule)."""
+    q = np.exp(z) if h.name != "dead_time" else z.copy()
+    for i, (lo, hi) in enumerate(h.bounds(ctx)):
+        q[i] = min(max(q[i], lo), hi)
+    if fixed is not None and fixed.size:
+        q = np.r_[q, fixed]
+    return q
+
+
+def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
+                   starts: int = 3) -> Fit:
+    """Fit ``h``: evaluate its coarse grid, refine the best ``starts`` points with
+    Nelder–Mead, then add a local profile grid for the parameter intervals."""
+    ctx = prob.ctx
+    evals: list[tuple[np.ndarray, float]] = []
+
+    def cost(p: np.ndarray) -> float:
+        c, _, _ = prob.evaluate(h, p)
+        evals.append((p.copy(), c))
+        return c
+
+    for p in h.grid(ctx):
+        cost(np.asarray(p, float))
+    if h.params and refine:
+        order = sorted(range(len(evals)), key=lambda i: evals[i][1])
+        seeds = [evals[i][0] for i in order[:starts]]
+        k = len(h.params)
+        if evals and evals[0][0].size > k:
+            # discrete trailing settings (e.g. a stop rule): refine the best of each too
+            for code in sorted({tuple(e[0][k:]) for e in evals}):
+                ranked = sorted((e for e in evals if tuple(e[0][k:]) == code),
+                                key=lambda e: e[1])
+                for best in ranked[:2]:
+                    if not any(np.array_equal(best[0], q) for q in seeds):
+                        seeds.append(best[0])
+        for p0 in seeds:
+            finite = np.isfinite(p0)
+            if not finite.any():
+                continue
+            if h.name == "saturation":
+                # refine only the active (finite) limits, in OP units
+                def obj(z, p0=p0, finite=finite):
+                    p = p0.copy()
+                    p[finite] = z
+                    return cost(p)
+                minimize(obj, p0[finite], method="Nelder-Mead",
+                         options={"xatol": 0.02, "fatol": 1e-12, "maxiter": 60})
+                continue
+            z0 = _to_free(h, ctx, p0)
+            fixed = p0[len(h.params):]
+            minimize(lambda z, fixed=fixed: cost(_from_free(h, ctx, z, fixed)), z0,
+                     method="Nelder-Mead",
+                     options={"xatol": 1e-3, "fatol": 1e-14, "maxiter": 120,
+                              "initial_simplex": _simplex(h, z0, ctx)})
+    best_p, best_c = min(evals, key=lambda e: e[1])
+    # local profile grid around the optimum (for intervals)
+    if h.params and np.all(np.isfinite(best_p)):
+        for q in _local_grid(h, best_p, ctx):
+            cost(q)
+        best_p, best_c = min(evals, key=lambda e: e[1])
+    c, beta, pred = prob.evaluate(h, best_p)
+    resid = prob.y - pred
+    fit = Fit(h.name, best_p, beta, c, h.describe(best_p, beta), h.n_params(), resid, pred,
+              evaluations=len(evals))
+    fit.extra = h.extra(best_p)
+    fit.intervals = profile_intervals(h, evals, c, n_effective(resid[prob.train]))
+    return fit
+
+
+def _simplex(h: Hypothesis, z0: np.ndarray, ctx: Context) -> np.ndarray:
+    step = np.full(z0.size, 0.25)
+    if h.name == "dead_time":
+        step[:] = ctx.Ts
+    if h.name == "stiction":
+        # J can be 0: move it in absolute terms through its log
+        step[:] = (0.3, 0.6)
+    pts = [z0]
+    for i in range(z0.size):
+        z = z0.copy()
+        z[i] += step[i]
+        pts.append(z)
+    return np.array(pts)
+
+
+def _local_grid(h: Hypothesis, p: np.ndarray, ctx: Context) -> list[np.ndarray]:
+    out = []
+    if h.name == "dead_time":
+        for d in np.linspace(-3 * ctx.Ts, 3 * ctx.Ts, 13):
+            out.append(_from_free(h, ctx, p + d))
+    elif p.size == 1:
+        for f in np.geomspace(0.5, 2.0, 15):
+            out.append(_from_free(h, ctx, np.log(p * f)))
+    elif h.name == "stiction":
+        lo = [b[0] for b in h.bounds(ctx)]
+        hi = [b[1] for b in h.bounds(ctx)]
+        for fs in np.geomspace(0.6, 1.6, 9):
+            for fj in np.linspace(0.0, 1.6, 9):
+                q = np.clip([p[0] * fs, max(p[1], 0.05 * p[0]) * fj], lo, hi)
+                out.append(np.r_[q, p[2:]])
+    return out
+
+
+def profile_intervals(h: Hypothesis, evals: list[tuple[np.ndarray, float]], c_min: float,
+                      n_eff: float, level: float = 0.95) -> dict[str, list[float]]:
+    """Profile-likelihood intervals: for Gaussian residuals, ``n·ln(c/c_min) ≤ χ²₁(level)``
+    bounds each parameter; the interval spans every evaluated point inside that region."""
+    if not h.params:
+        return {}
+    thr = c_min * math.exp(chi2.ppf(level, 1) / max(n_eff, 1.0))
+    P = np.array([e[0] for e in evals])
+    C = np.array([e[1] for e in evals])
+    inside = C <= thr
+    out = {}
+    for i, name in enumerate(h.params):
+        v = P[inside, i]
+        v = v[np.isfinite(v)]
+        if v.size:
+            out[name] = [float(v.min()), float(v.max())]
+    return out

@@ -1,0 +1,261 @@
+"""The library of physical hypotheses: each one is an open-loop model block with
+parameters that turns the recorded OP into regressors for the measured PV.
+
+Every hypothesis predicts ``PV ≈ c + K·G(valve(OP))`` (plus, for the disturbance, a
+sinusoid) where ``G`` is the unit-gain FOPDT of the nominal model and ``K`` and the
+other linear coefficients are solved by least squares, so that a gain error or an offset
+is never blamed on physics. The nonlinear parameters are what the fitter searches.
+
+Vocabulary (``missing_physics``): ``none``, ``stiction`` (S, J in % of OP span),
+``deadband`` (deadband, %), ``sensor_lag`` (time_constant, s), ``dead_time`` (dead_time,
+s, the total), ``valve_characteristic`` (rangeability), ``saturation`` (op_low/op_high,
+%), ``oscillatory_disturbance`` (period s, amplitude).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .openloop import (
+    equal_percentage,
+    first_order_lag,
+    fopdt_response,
+    play,
+    stiction_valve,
+)
+
+
+@dataclass
+class Context:
+    """What every hypothesis needs: the recorded signals and the nominal dynamics."""
+
+    t: np.ndarray
+    op: np.ndarray
+    pv: np.ndarray
+    Ts: float
+    tau: float
+    theta: float
+    resid_periods: list[float] = field(default_factory=list)
+
+    @property
+    def op_span(self) -> float:
+        return float(np.ptp(self.op)) or 1.0
+
+
+class Hypothesis:
+    """Base class: ``name``, parameter names, a coarse grid, bounds and regressors."""
+
+    name = "none"
+    params: tuple[str, ...] = ()
+    #: number of extra linear coefficients beyond the gain (for the complexity penalty)
+    extra_linear = 0
+
+    def grid(self, ctx: Context) -> list[np.ndarray]:
+        return [np.zeros(0)]
+
+    def bounds(self, ctx: Context) -> list[tuple[float, float]]:
+        return []
+
+    def regressors(self, ctx: Context, p: np.ndarray) -> np.ndarray:
+        """Columns whose linear combination (plus an offset) predicts PV."""
+        return fopdt_response(ctx.op, ctx.Ts, ctx.tau, ctx.theta)[:, None]
+
+    def n_params(self) -> int:
+        return len(self.params) + self.extra_linear + 1
+
+    def describe(self, p: np.ndarray, beta: np.ndarray) -> dict[str, Any]:
+        return {k: float(v) for k, v in zip(self.params, p, strict=False)}
+
+    def extra(self, p: np.ndarray) -> dict[str, Any]:
+        """Further (non-vocabulary) fitted settings, reported under details."""
+        return {}
+
+
+class Nominal(Hypothesis):
+    """The nominal model as given: linear valve, ideal sensor, no disturbance."""
+
+
+class Stiction(Hypothesis):
+    """Two-parameter stiction (Kano et al. 2004): S = deadband + stickband, J = slip jump.
+
+    A third, discrete entry of the parameter vector selects the stop rule of
+    :func:`~.openloop.stiction_valve` for sampled data: stop only on OP reversals
+    (Kano), stop when OP advanced less than its median absolute step, or stop after
+    every sample (what a valve driven by a noisy controller output does between two
+    recorded samples). It is chosen by the fit and counted as a parameter.
+    """
+
+    name = "stiction"
+    params = ("S", "J")
+    STOP_RULES = ("reversal", "slow", "every_sample")
+
+    def _delta(self, ctx, code):
+        code = int(round(code))
+        if code == 0:
+            return 0.0
+        if code == 1:
+            return float(np.median(np.abs(np.diff(ctx.op))))
+        return math.inf
+
+    def grid(self, ctx):
+        span = ctx.op_span
+        # the cost is rugged in (S, J) (a slip one sample early shifts the whole cycle):
+        # a dense coarse grid before the local refinement
+        Ss = np.geomspace(0.05, max(0.1, 0.9 * span), 30)
+        return [np.array([s, f * s, m]) for m in (0, 1, 2) for s in Ss
+                for f in (0.0, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.25)]
+
+    def bounds(self, ctx):
+        span = ctx.op_span
+        return [(0.01, max(0.1, 1.2 * span)), (0.0, max(0.1, 1.2 * span))]
+
+    def regressors(self, ctx, p):
+        mv = stiction_valve(ctx.op, float(p[0]), float(min(p[1], 1.5 * p[0])),
+                            self._delta(ctx, p[2]))
+        return fopdt_response(mv, ctx.Ts, ctx.tau, ctx.theta)[:, None]
+
+    def n_params(self) -> int:
+        return 4
+
+    def describe(self, p, beta):
+        return {"S": float(p[0]), "J": float(p[1])}
+
+    def extra(self, p):
+        return {"stop_rule": self.STOP_RULES[int(round(p[2]))]}
+
+
+class Deadband(Hypothesis):
+    """Deadband/backlash of total width ``deadband`` (% of OP span)."""
+
+    name = "deadband"
+    params = ("deadband",)
+
+    def grid(self, ctx):
+        return [np.array([d]) for d in np.geomspace(0.05, max(0.1, 0.9 * ctx.op_span), 24)]
+
+    def bounds(self, ctx):
+        return [(0.01, max(0.1, 1.2 * ctx.op_span))]
+
+    def regressors(self, ctx, p):
+        return fopdt_response(play(ctx.op, float(p[0])), ctx.Ts, ctx.tau, ctx.theta)[:, None]
+
+
+class SensorLag(Hypothesis):
+    """An extra first-order lag (``time_constant``, s) in the measurement."""
+
+    name = "sensor_lag"
+    params = ("time_constant",)
+
+    def grid(self, ctx):
+        hi = max(5.0 * ctx.tau, 10 * ctx.Ts)
+        return [np.array([v]) for v in np.geomspace(0.3 * ctx.Ts, hi, 24)]
+
+    def bounds(self, ctx):
+        return [(0.05 * ctx.Ts, max(8.0 * ctx.tau, 20 * ctx.Ts))]
+
+    def regressors(self, ctx, p):
+        g = fopdt_response(ctx.op, ctx.Ts, ctx.tau, ctx.theta)
+        return first_order_lag(g, ctx.Ts, float(p[0]))[:, None]
+
+
+class DeadTime(Hypothesis):
+    """A different total dead time (``dead_time``, s)."""
+
+    name = "dead_time"
+    params = ("dead_time",)
+
+    def _hi(self, ctx):
+        return max(3.0 * ctx.theta + 2.0 * ctx.tau, 20 * ctx.Ts)
+
+    def grid(self, ctx):
+        return [np.array([v]) for v in np.arange(0.0, self._hi(ctx), ctx.Ts / 2.0)][:400]
+
+    def bounds(self, ctx):
+        return [(0.0, self._hi(ctx))]
+
+    def regressors(self, ctx, p):
+        return fopdt_response(ctx.op, ctx.Ts, ctx.tau, float(p[0]))[:, None]
+
+
+class ValveCharacteristic(Hypothesis):
+    """Installed equal-percentage characteristic with ``rangeability`` R."""
+
+    name = "valve_characteristic"
+    params = ("rangeability",)
+
+    def grid(self, ctx):
+        return [np.array([r]) for r in np.geomspace(1.5, 500.0, 24)]
+
+    def bounds(self, ctx):
+        return [(1.05, 2000.0)]
+
+    def regressors(self, ctx, p):
+        flow = equal_percentage(ctx.op, float(p[0]))
+        return fopdt_response(flow, ctx.Ts, ctx.tau, ctx.theta)[:, None]
+
+
+class Saturation(Hypothesis):
+    """Valve travel limits the controller does not know about (``op_low``, ``op_high``)."""
+
+    name = "saturation"
+    params = ("op_low", "op_high")
+
+    def grid(self, ctx):
+        lo_c = [-np.inf] + list(np.percentile(ctx.op, [1, 3, 7, 15, 25, 40]))
+        hi_c = [np.inf] + list(np.percentile(ctx.op, [99, 97, 93, 85, 75, 60]))
+        return [np.array([lo, hi]) for lo in lo_c for hi in hi_c if lo < hi]
+
+    def bounds(self, ctx):
+        return [(float(ctx.op.min()), float(ctx.op.max()))] * 2
+
+    def regressors(self, ctx, p):
+        mv = np.clip(ctx.op, p[0], p[1])
+        return fopdt_response(mv, ctx.Ts, ctx.tau, ctx.theta)[:, None]
+
+    def n_params(self) -> int:
+        return 1 + 1  # at least one active limit; see describe() for which
+
+    def describe(self, p, beta):
+        out: dict[str, Any] = {}
+        if np.isfinite(p[0]):
+            out["op_low"] = float(p[0])
+        if np.isfinite(p[1]):
+            out["op_high"] = float(p[1])
+        return out
+
+
+class OscillatoryDisturbance(Hypothesis):
+    """An external sinusoidal disturbance on PV (``period`` s, ``amplitude`` PV units)."""
+
+    name = "oscillatory_disturbance"
+    params = ("period",)
+    extra_linear = 2
+
+    def grid(self, ctx):
+        T = ctx.t[-1] - ctx.t[0]
+        base = list(np.geomspace(4 * ctx.Ts, max(8 * ctx.Ts, T / 3), 40))
+        return [np.array([p]) for p in sorted(set(base + list(ctx.resid_periods)))]
+
+    def bounds(self, ctx):
+        T = ctx.t[-1] - ctx.t[0]
+        return [(2.5 * ctx.Ts, max(5 * ctx.Ts, T / 2))]
+
+    def regressors(self, ctx, p):
+        g = fopdt_response(ctx.op, ctx.Ts, ctx.tau, ctx.theta)
+        w = 2 * math.pi / float(p[0])
+        return np.column_stack([g, np.sin(w * ctx.t), np.cos(w * ctx.t)])
+
+    def describe(self, p, beta):
+        return {"period": float(p[0]), "amplitude": float(math.hypot(beta[1], beta[2]))}
+
+
+HYPOTHESES: dict[str, Hypothesis] = {
+    h.name: h
+    for h in (Stiction(), Deadband(), SensorLag(), DeadTime(), ValveCharacteristic(),
+              Saturation(), OscillatoryDisturbance())
+}
+VOCABULARY = ("none", *HYPOTHESES)

@@ -1,0 +1,84 @@
+"""Locating a mismatch in time (windows where the residual rises above the noise floor)
+and in frequency (residual spectrum against the noise floor, coherence with OP)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import coherence, welch
+
+
+def noise_floor(r: np.ndarray) -> float:
+    """Standard deviation of the white part of a residual: robust (MAD) scale of its
+    first differences divided by √2; smooth model errors barely enter it."""
+    d = np.diff(r)
+    mad = np.median(np.abs(d - np.median(d)))
+    return float(1.4826 * mad / np.sqrt(2.0))
+
+
+def rolling_rms(r: np.ndarray, w: int) -> np.ndarray:
+    w = max(1, min(w, r.size))
+    c = np.cumsum(np.r_[0.0, r * r])
+    ms = (c[w:] - c[:-w]) / w
+    pad_l = (w - 1) // 2
+    out = np.empty(r.size)
+    out[pad_l: pad_l + ms.size] = np.sqrt(ms)
+    out[:pad_l] = out[pad_l]
+    out[pad_l + ms.size:] = out[pad_l + ms.size - 1]
+    return out
+
+
+def mismatch_windows(t: np.ndarray, r: np.ndarray, sigma: float, w: int,
+                     factor: float = 2.0, start: int = 0) -> list[list[float]]:
+    """Time windows ``[t0, t1]`` where the rolling RMS of ``r`` exceeds ``factor·σ``
+    (merged when closer than ``w`` samples, at least ``w`` samples long)."""
+    rms = rolling_rms(r, w)
+    above = rms > factor * max(sigma, 1e-300)
+    above[:start] = False
+    idx = np.flatnonzero(above)
+    if idx.size == 0:
+        return []
+    breaks = np.flatnonzero(np.diff(idx) > w)
+    starts = np.r_[idx[0], idx[breaks + 1]]
+    ends = np.r_[idx[breaks], idx[-1]]
+    return [[float(t[a]), float(t[b])] for a, b in zip(starts, ends, strict=True)
+            if b - a + 1 >= w]
+
+
+def mismatch_band(r: np.ndarray, Ts: float, sigma: float, op: np.ndarray | None = None,
+                  excess: float = 4.0) -> tuple[list[float], dict]:
+    """Frequency band (Hz) around the largest excess of the residual PSD over the white
+    noise floor ``2σ²Ts`` (one-sided); empty when nothing exceeds ``excess``× the floor.
+    Also returns the spectrum and the residual–OP coherence for reporting."""
+    nper = int(min(256, max(16, r.size // 4)))
+    f, P = welch(r, fs=1.0 / Ts, nperseg=nper, detrend="constant")
+    floor = 2.0 * sigma * sigma * Ts
+    info: dict = {"f": f, "psd": P, "floor": floor}
+    if op is not None:
+        fc, C = coherence(r, op, fs=1.0 / Ts, nperseg=nper)
+        info["coherence_f"] = fc
+        info["coherence"] = C
+    ratio = P / max(floor, 1e-300)
+    ratio[0] = 0.0
+    k = int(np.argmax(ratio))
+    if ratio[k] < excess:
+        return [], info
+    lo = k
+    while lo > 1 and ratio[lo - 1] >= excess:
+        lo -= 1
+    hi = k
+    while hi < f.size - 1 and ratio[hi + 1] >= excess:
+        hi += 1
+    band = [float(f[max(lo - 1, 0)] if lo > 1 else f[lo]), float(f[min(hi + 1, f.size - 1)])]
+    if op is not None:
+        sel = (info["coherence_f"] >= band[0]) & (info["coherence_f"] <= band[1])
+        info["band_coherence"] = float(np.mean(info["coherence"][sel])) if sel.any() else None
+    return band, info
+
+
+def dominant_periods(r: np.ndarray, Ts: float, n: int = 3) -> list[float]:
+    """Periods (s) of the ``n`` largest local maxima of the residual's Welch PSD."""
+    nper = int(min(512, max(16, r.size // 3)))
+    f, P = welch(r, fs=1.0 / Ts, nperseg=nper)
+    peaks = [i for i in range(1, f.size - 1) if P[i] >= P[i - 1] and P[i] >= P[i + 1]]
+    peaks.sort(key=lambda i: -P[i])
+    return [float(1.0 / f[i]) for i in peaks[:n] if f[i] > 0]

@@ -1,0 +1,125 @@
+"""The nominal model a user believes in: a FOPDT process under an ideal PI controller,
+read from YAML or identified from the recording itself.
+
+YAML contract (``stictionbench diagnose --model MODEL.yaml``)::
+
+    process: {gain: 2.0, time_constant: 11.5, dead_time: 3.0}   # PV units per % OP; s
+    controller: {kc: 0.29, ti: 11.5}                              # u = kc*(e + (1/ti)∫e dt)
+    sample_time: 1.0
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from ..errors import InputError
+from ..recording import Recording
+
+
+@dataclass(frozen=True)
+class NominalModel:
+    """FOPDT process ``K e^{−θs}/(τs + 1)`` with an ideal PI controller.
+
+    ``source`` is ``"given"`` (from YAML) or ``"identified"`` (from the recording).
+    ``kc``/``ti`` may be ``None`` when unknown (no closed-loop replay then).
+    """
+
+    gain: float
+    time_constant: float
+    dead_time: float
+    kc: float | None = None
+    ti: float | None = None
+    sample_time: float | None = None
+    source: str = "given"
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def _num(path: str, key: str, value: Any, *, positive: bool = False,
+         nonneg: bool = False) -> float:
+    if isinstance(value, bool) or value is None:
+        raise InputError(f"{path}: {key}: expected a number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{path}: {key}: expected a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise InputError(f"{path}: {key}: must be finite")
+    if positive and v <= 0:
+        raise InputError(f"{path}: {key}: must be positive, got {value!r}")
+    if nonneg and v < 0:
+        raise InputError(f"{path}: {key}: must not be negative, got {value!r}")
+    return v
+
+
+def load_model(path: str | Path) -> NominalModel:
+    """Read and validate a nominal-model YAML file.
+
+    Raises
+    ------
+    InputError
+        Missing file, broken YAML, missing keys, text where numbers belong,
+        non-positive time constants or gains of zero, negative dead time.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{p}: no such model file")
+    try:
+        doc = yaml.safe_load(p.read_text(encoding="utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else "parse error"
+        raise InputError(f"{p}: not valid YAML ({first})") from None
+    if not isinstance(doc, dict):
+        raise InputError(f"{p}: expected a mapping with process, controller, sample_time")
+    proc = doc.get("process")
+    if not isinstance(proc, dict):
+        raise InputError(f"{p}: missing key 'process' (gain, time_constant, dead_time)")
+    for k in ("gain", "time_constant", "dead_time"):
+        if k not in proc:
+            raise InputError(f"{p}: missing key 'process.{k}'")
+    gain = _num(str(p), "process.gain", proc["gain"])
+    if gain == 0:
+        raise InputError(f"{p}: process.gain: must not be zero")
+    tau = _num(str(p), "process.time_constant", proc["time_constant"], positive=True)
+    theta = _num(str(p), "process.dead_time", proc["dead_time"], nonneg=True)
+    kc = ti = None
+    ctrl = doc.get("controller")
+    if ctrl is not None:
+        if not isinstance(ctrl, dict):
+            raise InputError(f"{p}: controller: expected a mapping with kc and ti")
+        for k in ("kc", "ti"):
+            if k not in ctrl:
+                raise InputError(f"{p}: missing key 'controller.{k}'")
+        kc = _num(str(p), "controller.kc", ctrl["kc"])
+        ti = _num(str(p), "controller.ti", ctrl["ti"], positive=True)
+    Ts = None
+    if "sample_time" in doc:
+        Ts = _num(str(p), "sample_time", doc["sample_time"], positive=True)
+    unknown = set(doc) - {"process", "controller", "sample_time"}
+    if unknown:
+        raise InputError(f"{p}: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
+    return NominalModel(gain, tau, theta, kc, ti, Ts, "given")
+
+
+def identify_pi(rec: Recording) -> tuple[float, float] | None:
+    """Estimate an ideal PI ``(kc, ti)`` from SP, PV, OP by least squares on the
+    velocity form ``ΔOP[k] = kc·Δe[k] + kc·Ts/ti·e[k]``; ``None`` when SP is absent or
+    the fit is not a PI controller (non-positive integral action)."""
+    if rec.SP is None:
+        return None
+    e = rec.SP - rec.PV
+    dop = np.diff(rec.OP)
+    X = np.column_stack([np.diff(e), e[1:]])
+    if np.linalg.matrix_rank(X) < 2:
+        return None
+    (a, b), *_ = np.linalg.lstsq(X, dop, rcond=None)
+    if a == 0 or b / a <= 0:
+        return None
+    return float(a), float(a * rec.Ts / b)
