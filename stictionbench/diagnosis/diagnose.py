@@ -5,7 +5,7 @@ compare → locate → hypothesise → fit → validate:
 1. **Compare.** Replay the nominal model open loop from the recorded OP (and closed loop
    from SP when the controller is known) and form the residual PV − PV̂. Slow unmeasured
    loads are removed from PV and from every model output by the same zero-phase
-   high-pass (cut-off a fifteenth of the loop's natural frequency ``1/(2π(τ+θ))``): a
+   high-pass (cut-off ``0.3/(2π(τ+θ))`` ≈ one cycle per 20 (τ+θ)): a
    drift slower than the loop cannot be mistaken for physics.
 2. **Locate.** Windows in time where the residual's rolling RMS exceeds twice the
    white-noise floor; the band in frequency where its spectrum exceeds four times the
@@ -36,9 +36,22 @@ from .fit import Fit, Problem, fit_hypothesis, n_effective
 from .hypotheses import HYPOTHESES, Context, Nominal
 from .locate import dominant_periods, mismatch_band, mismatch_windows, noise_floor
 from .model import NominalModel, identify_pi
-from .openloop import fopdt_response, highpass
+from .openloop import fopdt_response, highpass, play, stiction_valve
 
 TRAIN_FRACTION = 0.6
+#: valve hypotheses for which the process is re-identified from the estimated valve
+#: output when no nominal model was given
+REIDENTIFY = ("stiction", "deadband")
+
+
+def valve_output(name: str, p: np.ndarray, ctx: Context) -> np.ndarray:
+    """The valve position implied by a fitted valve hypothesis."""
+    if name == "stiction":
+        return stiction_valve(ctx.op, float(p[0]), float(min(p[1], 1.5 * p[0])),
+                              HYPOTHESES["stiction"]._delta(ctx, p[2]))
+    if name == "deadband":
+        return play(ctx.op, float(p[0]))
+    raise ValueError(name)
 
 
 @dataclass
@@ -73,24 +86,23 @@ class Diagnosis:
             "ranking": self.ranking,
             "uncertainty": self.uncertainty,
             "nominal_model": self.model.to_dict(),
-            "details": self.details,
+            "details": {k: v for k, v in self.details.items() if not k.startswith("_")},
         }
 
 
-def identify_fopdt(rec: Recording, f_hp_factor: float = 1 / 15) -> NominalModel:
-    """Identify a FOPDT ``(K, τ, θ)`` from OP → PV by output-error least squares on
-    high-passed signals: a grid over τ and θ (gain solved linearly), then Nelder–Mead."""
-    Ts = rec.Ts
-    n = len(rec)
+def fit_fopdt(u: np.ndarray, pv: np.ndarray, Ts: float,
+              f_hp_factor: float = 1 / 15) -> tuple[float, float, float]:
+    """Output-error FOPDT fit ``u → pv``: a grid over τ and θ with the gain solved
+    linearly on high-passed signals, then Nelder–Mead. Returns ``(K, τ, θ)``."""
+    n = u.size
     T = n * Ts
-    op = rec.OP
     taus = np.geomspace(Ts, max(2 * Ts, T / 8), 14)
     thetas = np.arange(0.0, min(T / 8, 60 * Ts) + 1e-9, max(Ts, T / 8 / 30))
 
     def cost(tau: float, theta: float) -> tuple[float, float]:
         f_hp = f_hp_factor / (2 * math.pi * (tau + theta))
-        y = highpass(rec.PV, Ts, f_hp)
-        g = highpass(fopdt_response(op, Ts, tau, theta), Ts, f_hp)
+        y = highpass(pv, Ts, f_hp)
+        g = highpass(fopdt_response(u, Ts, tau, theta), Ts, f_hp)
         burn = min(int((theta + 3 * tau) / Ts), n // 5)
         gg = float(np.dot(g[burn:], g[burn:]))
         if gg <= 0:
@@ -114,8 +126,16 @@ def identify_fopdt(rec: Recording, f_hp_factor: float = 1 / 15) -> NominalModel:
     if res.fun > best[0]:
         tau, theta = best[1], best[2]
     _, K = cost(tau, theta)
+    return K, tau, theta
+
+
+def identify_fopdt(rec: Recording, f_hp_factor: float = 1 / 15) -> NominalModel:
+    """Identify a FOPDT nominal model from OP → PV (see :func:`fit_fopdt`) and a PI
+    controller from SP, PV, OP when SP is recorded."""
+    K, tau, theta = fit_fopdt(np.asarray(rec.OP, float), np.asarray(rec.PV, float), rec.Ts,
+                              f_hp_factor)
     pi = identify_pi(rec)
-    return NominalModel(K, tau, theta, pi[0] if pi else None, pi[1] if pi else None, Ts,
+    return NominalModel(K, tau, theta, pi[0] if pi else None, pi[1] if pi else None, rec.Ts,
                         "identified")
 
 
@@ -153,7 +173,7 @@ def closed_loop_replay(rec: Recording, m: NominalModel) -> dict[str, Any] | None
 
 
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = 0.01,
-             min_improvement: float = 0.05, hp_factor: float = 1 / 15,
+             min_improvement: float = 0.05, hp_factor: float = 0.3,
              hypotheses: tuple[str, ...] | None = None) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``.
 
@@ -209,14 +229,54 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         raise InputError(f"{rec.meta.get('source', 'recording')}: too short for the "
                          f"model's time scales (θ + 3τ = {theta + 3 * tau:g} s)")
     ctx = Context(rec.t - rec.t[0], np.asarray(rec.OP, float), np.asarray(rec.PV, float),
-                  Ts, tau, theta)
+                  Ts, tau, theta, f_hp)
     prob = Problem(ctx, f_hp, slice(burn, split), slice(split, n))
-    nominal = fit_hypothesis(prob, Nominal())
+    # recording convention: historians store OP either before or after the controller
+    # executes, which shifts the apparent dead time by one sample. That is bookkeeping,
+    # not physics: every hypothesis (the nominal one included) may absorb a shift of ±1
+    # sample, chosen by its own training fit (a valve that adds lag must not bias the
+    # alignment of the others).
+    shifts = [s for s in (0.0, -Ts, Ts) if theta + s >= 0]
+
+    def fit_aligned(h) -> Fit:
+        best: Fit | None = None
+        for shift in shifts if h.name != "dead_time" else (0.0,):
+            ctx_s = Context(ctx.t, ctx.op, ctx.pv, Ts, tau, theta + shift, f_hp,
+                            ctx.resid_periods)
+            ft = fit_hypothesis(Problem(ctx_s, f_hp, prob.train, prob.val), h)
+            ft.extra = {**ft.extra, "timing_shift_s": shift}
+            if best is None or ft.cost_train < best.cost_train * (1 - 1e-9):
+                best = ft
+        assert best is not None
+        return best
+
+    nominal = fit_aligned(Nominal())
     ctx.resid_periods = dominant_periods(nominal.resid[burn:split], Ts)
     names = hypotheses or tuple(HYPOTHESES)
     fits: dict[str, Fit] = {"none": nominal}
     for name in names:
-        fits[name] = fit_hypothesis(prob, HYPOTHESES[name])
+        fits[name] = fit_aligned(HYPOTHESES[name])
+    if model.source == "identified":
+        # the nominal dynamics were identified through the very valve we suspect: a
+        # sticky valve's lag is absorbed into τ and θ. For the valve hypotheses, identify
+        # the process again from the fitted valve output, then refit the valve.
+        for name in REIDENTIFY:
+            if name not in fits:
+                continue
+            h = HYPOTHESES[name]
+            for _round in range(2):
+                mv = valve_output(name, fits[name].p, ctx)
+                _, tau_h, theta_h = fit_fopdt(mv, ctx.pv, Ts, hp_factor)
+                ctx_h = Context(ctx.t, ctx.op, ctx.pv, Ts, tau_h, theta_h, f_hp,
+                                ctx.resid_periods)
+                prob_h = Problem(ctx_h, f_hp, prob.train, prob.val)
+                refit = fit_hypothesis(prob_h, h)
+                refit.n_params += 2  # τ and θ were fitted for this hypothesis
+                refit.extra = {**refit.extra, "time_constant": tau_h, "dead_time": theta_h}
+                if refit.cost_train < fits[name].cost_train:
+                    fits[name] = refit
+                else:
+                    break
     # ---- validation
     yv = prob.y[prob.val]
     sy = float(np.std(yv)) or 1.0
@@ -270,6 +330,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         "residual_to_noise_variance": ratio,
         "noise_floor": sigma,
         "highpass_hz": f_hp,
+        "timing_shift_s": nominal.extra.get("timing_shift_s", 0.0),
         "train_samples": [int(burn), int(split)],
         "validation_samples": [int(split), int(n)],
         "band_coherence_with_op": spec.get("band_coherence"),

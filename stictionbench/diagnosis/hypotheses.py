@@ -39,6 +39,7 @@ class Context:
     Ts: float
     tau: float
     theta: float
+    f_hp: float | None = None
     resid_periods: list[float] = field(default_factory=list)
 
     @property
@@ -235,14 +236,21 @@ class OscillatoryDisturbance(Hypothesis):
     params = ("period",)
     extra_linear = 2
 
-    def grid(self, ctx):
+    def _max_period(self, ctx):
+        # at least eight cycles in the record (three in the validation part), and faster
+        # than the slow-load high-pass: a slower "oscillation" is a load, not a disturbance
         T = ctx.t[-1] - ctx.t[0]
-        base = list(np.geomspace(4 * ctx.Ts, max(8 * ctx.Ts, T / 3), 40))
-        return [np.array([p]) for p in sorted(set(base + list(ctx.resid_periods)))]
+        hp = 1.0 / ctx.f_hp if ctx.f_hp else np.inf
+        return max(5 * ctx.Ts, min(T / 8, hp / 2))
+
+    def grid(self, ctx):
+        top = self._max_period(ctx)
+        base = list(np.geomspace(4 * ctx.Ts, max(8 * ctx.Ts, top), 40))
+        extra = [p for p in ctx.resid_periods if 4 * ctx.Ts <= p <= top]
+        return [np.array([p]) for p in sorted(set(base + extra)) if p <= top]
 
     def bounds(self, ctx):
-        T = ctx.t[-1] - ctx.t[0]
-        return [(2.5 * ctx.Ts, max(5 * ctx.Ts, T / 2))]
+        return [(2.5 * ctx.Ts, self._max_period(ctx))]
 
     def regressors(self, ctx, p):
         g = fopdt_response(ctx.op, ctx.Ts, ctx.tau, ctx.theta)

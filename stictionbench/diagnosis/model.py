@@ -110,16 +110,29 @@ def load_model(path: str | Path) -> NominalModel:
 
 def identify_pi(rec: Recording) -> tuple[float, float] | None:
     """Estimate an ideal PI ``(kc, ti)`` from SP, PV, OP by least squares on the
-    velocity form ``ΔOP[k] = kc·Δe[k] + kc·Ts/ti·e[k]``; ``None`` when SP is absent or
-    the fit is not a PI controller (non-positive integral action)."""
+    velocity form ``ΔOP[k] = kc·Δe[k−l] + kc·Ts/ti·e[k−l]`` for a recording lag
+    ``l ∈ {0, 1}`` (historians often store OP one execution late); ``None`` when SP is
+    absent or the best fit is not a PI controller (non-positive integral action, or it
+    explains less than half of the OP moves)."""
     if rec.SP is None:
         return None
     e = rec.SP - rec.PV
     dop = np.diff(rec.OP)
-    X = np.column_stack([np.diff(e), e[1:]])
-    if np.linalg.matrix_rank(X) < 2:
+    best = None
+    for lag in (0, 1):
+        X = np.column_stack([np.diff(e), e[1:]])
+        y = dop
+        if lag:
+            X, y = X[:-1], dop[1:]
+        if np.linalg.matrix_rank(X) < 2:
+            continue
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        r2 = 1 - float(np.sum((y - X @ coef) ** 2)) / max(float(np.sum(y * y)), 1e-300)
+        if best is None or r2 > best[0]:
+            best = (r2, coef)
+    if best is None or best[0] < 0.5:
         return None
-    (a, b), *_ = np.linalg.lstsq(X, dop, rcond=None)
+    a, b = best[1]
     if a == 0 or b / a <= 0:
         return None
     return float(a), float(a * rec.Ts / b)

@@ -1,0 +1,51 @@
+"""``stictionbench diagnose REC.csv [--model MODEL.yaml] --json OUT.json [--report DIR]``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from ..errors import InputError
+
+
+def cmd_diagnose(args: argparse.Namespace) -> int:
+    from ..io import read_recording, write_text
+    from .diagnose import diagnose
+    from .model import load_model
+    from .report import write_report
+
+    if not args.json:
+        raise InputError("diagnose needs --json OUT.json")
+    model = load_model(args.model) if args.model else None
+    rec = read_recording(args.recording)
+    d = diagnose(rec, model)
+    payload = d.to_json()
+    payload["recording"] = str(args.recording)
+    if args.report:
+        write_report(d, args.report)
+    write_text(args.json, json.dumps(payload, indent=2, allow_nan=False,
+                                     default=_safe) + "\n")
+    f = d.fit
+    params = ", ".join(f"{k}={v:.3g}" for k, v in d.parameters.items())
+    print(f"{args.recording}: {d.missing_physics}" + (f" ({params})" if params else "")
+          + f"; validation NRMSE {f['nominal']:.3f} -> {f['improved']:.3f}; "
+          f"model {d.model.source}; {d.details['seconds']:.1f} s")
+    return 0
+
+
+def _safe(o):
+    import numpy as np
+
+    if isinstance(o, np.generic):
+        return o.item()
+    raise TypeError(f"not JSON-serialisable: {type(o).__name__}")
+
+
+def add_command(sub) -> None:
+    p = sub.add_parser("diagnose", help="locate and explain the gap between a nominal "
+                                        "model and a recording")
+    p.add_argument("recording", help="CSV/Parquet with t, SP, PV, OP (MV optional)")
+    p.add_argument("--model", help="nominal model YAML (identified from the data if absent)")
+    p.add_argument("--json", required=False, metavar="OUT.json")
+    p.add_argument("--report", metavar="DIR", help="write figures and summary.md here")
+    p.set_defaults(func=cmd_diagnose)

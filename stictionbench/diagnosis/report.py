@@ -1,0 +1,156 @@
+"""Rendering a :class:`~.diagnose.Diagnosis`: figures (PNG) and a one-minute Markdown
+summary for a plant engineer."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..io import write_text
+from ..reports.figures import new_figure, save_png
+from .diagnose import Diagnosis
+from .hypotheses import HYPOTHESES, Context
+from .openloop import stiction_valve
+
+PLAIN = {
+    "none": "the nominal model explains the recording; nothing is missing",
+    "stiction": "a sticky valve: it holds until the controller output has moved by S, "
+                "then jumps by J",
+    "deadband": "a valve deadband/backlash: the valve follows the controller output only "
+                "after it has reversed by the deadband",
+    "sensor_lag": "an extra lag in the measurement (transmitter damping or a slow sensor)",
+    "dead_time": "a different transport delay than the model assumes",
+    "valve_characteristic": "a non-linear (equal-percentage) valve characteristic: the "
+                            "loop gain changes with valve opening",
+    "saturation": "valve travel limits the controller does not know about",
+    "oscillatory_disturbance": "an external oscillating disturbance entering the process",
+}
+
+
+def _shade(ax, windows):
+    for i, (a, b) in enumerate(windows):
+        ax.axvspan(a, b, color="orange", alpha=0.2, label="mismatch window" if i == 0 else None)
+
+
+def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
+    """Write figures and ``summary.md`` for a diagnosis into ``out_dir``."""
+    out = Path(out_dir)
+    rec = d.rec
+    assert rec is not None
+    t = rec.t
+    nom = d.fits["none"]
+    best = d.fits[d.missing_physics]
+    y_hp = nom.resid + nom.pred  # the high-passed PV
+    paths = []
+    # 1. recording vs nominal vs improved (high-passed: what the fit compares)
+    fig, ax = new_figure(figsize=(9, 4))
+    ax.plot(t, y_hp, color="k", lw=0.8, label="recorded PV (slow load removed)")
+    ax.plot(t, nom.pred, lw=1, label="nominal model")
+    if d.missing_physics != "none":
+        ax.plot(t, best.pred, lw=1, label=f"with {d.missing_physics}")
+    ax.axvline(t[d.train_end], color="grey", ls="--", lw=1)
+    ax.text(t[d.train_end], ax.get_ylim()[1], " validation →", va="top", fontsize=8)
+    ax.set(xlabel="time (s)", ylabel="PV (deviation)", title="Recording vs simulations")
+    ax.legend(loc="lower left")
+    paths.append(save_png(fig, out / "replay.png"))
+    # 2. residual before/after with windows
+    fig, ax = new_figure(figsize=(9, 4))
+    _shade(ax, d.mismatch_windows)
+    ax.plot(t, nom.resid, lw=0.8, label="residual, nominal")
+    if d.missing_physics != "none":
+        ax.plot(t, best.resid, lw=0.8, label=f"residual, with {d.missing_physics}")
+    ax.set(xlabel="time (s)", ylabel="PV − model", title="Residual before and after")
+    ax.legend(loc="lower left")
+    paths.append(save_png(fig, out / "residual.png"))
+    # 3. residual spectrum
+    sp = d.spectrum
+    fig, ax = new_figure()
+    if "f" in sp:
+        ax.semilogy(sp["f"][1:], sp["psd"][1:], label="nominal residual PSD")
+        ax.axhline(sp["floor"], color="k", ls=":", label="white-noise floor")
+        if d.mismatch_band_hz:
+            ax.axvspan(*d.mismatch_band_hz, color="orange", alpha=0.2, label="mismatch band")
+    ax.set(xlabel="frequency (Hz)", ylabel="PSD", title="Where in frequency")
+    ax.legend()
+    paths.append(save_png(fig, out / "spectrum.png"))
+    # 4. phase plots: PV–OP and the estimated MV–OP
+    fig, axs = new_figure(1, 2, figsize=(10, 4))
+    axs[0].plot(rec.OP, rec.PV, lw=0.6)
+    axs[0].set(xlabel="OP (%)", ylabel="PV", title="PV vs OP (recorded)")
+    if d.missing_physics in ("stiction", "deadband", "saturation", "valve_characteristic"):
+        mv = estimated_mv(d)
+        axs[1].plot(rec.OP, mv, lw=0.8)
+        axs[1].set(title=f"estimated valve position vs OP ({d.missing_physics})")
+    else:
+        axs[1].plot(rec.OP, rec.OP, lw=0.8)
+        axs[1].set(title="valve position vs OP (linear valve assumed)")
+    axs[1].set(xlabel="OP (%)", ylabel="estimated MV (%)")
+    paths.append(save_png(fig, out / "phase.png"))
+    write_text(out / "summary.md", summary_markdown(d))
+    paths.append(out / "summary.md")
+    return paths
+
+
+def estimated_mv(d: Diagnosis) -> np.ndarray:
+    """Valve position implied by the chosen valve hypothesis (OP for non-valve ones)."""
+    rec = d.rec
+    assert rec is not None
+    op = np.asarray(rec.OP, float)
+    ft = d.fits[d.missing_physics]
+    if d.missing_physics == "stiction":
+        h = HYPOTHESES["stiction"]
+        ctx = Context(rec.t, op, rec.PV, rec.Ts, d.model.time_constant, d.model.dead_time)
+        return stiction_valve(op, float(ft.p[0]), float(ft.p[1]), h._delta(ctx, ft.p[2]))
+    if d.missing_physics == "deadband":
+        from .openloop import play
+
+        return play(op, float(ft.p[0]))
+    if d.missing_physics == "saturation":
+        return np.clip(op, ft.p[0], ft.p[1])
+    return op
+
+
+def summary_markdown(d: Diagnosis) -> str:
+    m = d.model
+    lines = [
+        "# Diagnosis summary",
+        "",
+        f"**Verdict: {d.missing_physics}** — {PLAIN[d.missing_physics]}.",
+        "",
+    ]
+    if d.parameters:
+        ps = ", ".join(f"{k} = {v:.3g}" + (f" (95 % interval {d.uncertainty[k][0]:.3g}–"
+                                            f"{d.uncertainty[k][1]:.3g})"
+                                            if k in d.uncertainty else "")
+                       for k, v in d.parameters.items())
+        lines += [f"- Fitted: {ps}.", ""]
+    f = d.fit
+    imp = 1 - f["improved"] / f["nominal"] if f["nominal"] else 0.0
+    lines += [
+        f"- Fit on data the model did not see (validation, last 40 %): NRMSE "
+        f"{f['nominal']:.3f} with the nominal model, {f['improved']:.3f} with "
+        f"{d.missing_physics} ({imp:.0%} better).",
+        f"- Mismatch detected: {'yes' if d.mismatch_detected else 'no'} (residual variance "
+        f"{d.details['residual_to_noise_variance']:.1f}× the noise floor).",
+        f"- When: {len(d.mismatch_windows)} window(s)"
+        + (": " + ", ".join(f"{a:.0f}–{b:.0f} s" for a, b in d.mismatch_windows[:6])
+           if d.mismatch_windows else "") + ".",
+        "- Which frequencies: "
+        + (f"{d.mismatch_band_hz[0]:.4g}–{d.mismatch_band_hz[1]:.4g} Hz (periods "
+           f"{1 / max(d.mismatch_band_hz[1], 1e-12):.0f}–"
+           f"{1 / max(d.mismatch_band_hz[0], 1e-12):.0f} s)"
+           if d.mismatch_band_hz else "none above the noise floor") + ".",
+        f"- Nominal model ({m.source}): K = {m.gain:.3g}, τ = {m.time_constant:.3g} s, "
+        f"θ = {m.dead_time:.3g} s" + (f", PI Kc = {m.kc:.3g}, Ti = {m.ti:.3g} s"
+                                      if m.kc is not None else "") + ".",
+        "",
+        "| physics | score (0 = best) | validation NRMSE | improvement | p-value | chosen |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in d.ranking:
+        lines.append(f"| {r['physics']} | {r['score']:.1f} | {r['nrmse_validation']:.3f} | "
+                     f"{r['improvement']:.0%} | {r['p_value']:.2g} | "
+                     f"{'yes' if r['physics'] == d.missing_physics else ''} |")
+    lines += ["", "Figures: `replay.png`, `residual.png`, `spectrum.png`, `phase.png`.", ""]
+    return "\n".join(lines)
