@@ -20,6 +20,9 @@ EXIT_BAD_INPUT = 2
 #: modules that add a sub-command: each has ``add_command(subparsers)`` which adds its
 #: parser and sets ``func`` (one module per line)
 COMMAND_MODULES: tuple[str, ...] = (
+    "stictionbench.diagnosis.command",
+    "stictionbench.sweep.command",
+    "stictionbench.quality_command",
 )
 
 

@@ -11,8 +11,10 @@ compare → locate → hypothesise → fit → validate:
    white-noise floor; the band in frequency where its spectrum exceeds four times the
    floor; its coherence with OP in that band.
 3. **Hypothesise and fit.** Each vocabulary entry (:mod:`.hypotheses`) is fitted on the
-   first 60 % of the record (after a burn-in of θ + 3τ) by a coarse grid and Nelder–Mead.
-4. **Validate.** On the last 40 %: the candidate must beat the nominal model with an
+   training blocks (after a burn-in of θ + 3τ the record is cut into five blocks:
+   blocks 1, 3, 5 train, blocks 2, 4 validate) by a coarse grid and Nelder–Mead; the
+   simulation always runs through the whole record, only the scoring is split.
+4. **Validate.** On the validation blocks: the candidate must beat the nominal model with an
    F-test (p < ``alpha`` at the effective sample size) and by at least ``min_improvement``
    in NRMSE; among those the lowest BIC-style score (``n·ln MSE + k·ln n`` on the training
    part plus the same on the validation part) wins, otherwise the answer is ``none``.
@@ -39,6 +41,10 @@ from .model import NominalModel, identify_pi
 from .openloop import fopdt_response, highpass, play, stiction_valve
 
 TRAIN_FRACTION = 0.6
+#: the record after the burn-in is cut into this many blocks, alternately training and
+#: validation (training first and last): an event that happens only late in the record
+#: (a saturation, a slip) is then seen by both parts
+N_BLOCKS = 5
 #: valve hypotheses for which the process is re-identified from the estimated valve
 #: output when no nominal model was given
 REIDENTIFY = ("stiction", "deadband")
@@ -73,6 +79,7 @@ class Diagnosis:
     fits: dict[str, Fit] = field(default_factory=dict, repr=False)
     spectrum: dict[str, Any] = field(default_factory=dict, repr=False)
     train_end: int = 0
+    val_blocks: list[list[float]] = field(default_factory=list)
     burn: int = 0
 
     def to_json(self) -> dict[str, Any]:
@@ -224,13 +231,18 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     tau, theta = model.time_constant, model.dead_time
     f_hp = hp_factor / (2 * math.pi * (tau + theta))
     burn = min(int(math.ceil((theta + 3 * tau) / Ts)), n // 5)
-    split = int(TRAIN_FRACTION * n)
-    if split - burn < 50 or n - split < 50:
+    edges = np.linspace(burn, n, N_BLOCKS + 1).round().astype(int)
+    blocks = [np.arange(edges[i], edges[i + 1]) for i in range(N_BLOCKS)]
+    train_idx = np.concatenate(blocks[0::2])
+    val_idx = np.concatenate(blocks[1::2])
+    val_blocks = [[float(rec.t[b[0]]), float(rec.t[b[-1]])] for b in blocks[1::2]]
+    split = int(edges[1])
+    if edges[1] - edges[0] < 40:
         raise InputError(f"{rec.meta.get('source', 'recording')}: too short for the "
                          f"model's time scales (θ + 3τ = {theta + 3 * tau:g} s)")
     ctx = Context(rec.t - rec.t[0], np.asarray(rec.OP, float), np.asarray(rec.PV, float),
                   Ts, tau, theta, f_hp)
-    prob = Problem(ctx, f_hp, slice(burn, split), slice(split, n))
+    prob = Problem(ctx, f_hp, train_idx, val_idx)
     # recording convention: historians store OP either before or after the controller
     # executes, which shifts the apparent dead time by one sample. That is bookkeeping,
     # not physics: every hypothesis (the nominal one included) may absorb a shift of ±1
@@ -251,7 +263,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         return best
 
     nominal = fit_aligned(Nominal())
-    ctx.resid_periods = dominant_periods(nominal.resid[burn:split], Ts)
+    ctx.resid_periods = dominant_periods(nominal.resid[burn:], Ts)
     names = hypotheses or tuple(HYPOTHESES)
     fits: dict[str, Fit] = {"none": nominal}
     for name in names:
@@ -331,8 +343,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         "noise_floor": sigma,
         "highpass_hz": f_hp,
         "timing_shift_s": nominal.extra.get("timing_shift_s", 0.0),
-        "train_samples": [int(burn), int(split)],
-        "validation_samples": [int(split), int(n)],
+        "burn_in_samples": int(burn),
+        "validation_windows": val_blocks,
         "band_coherence_with_op": spec.get("band_coherence"),
         "closed_loop_replay": None if cl is None else
         {"pv_nrmse": cl["pv_nrmse"], "op_nrmse": cl["op_nrmse"]},
@@ -357,6 +369,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         fits=fits,
         spectrum=spec,
         train_end=split,
+        val_blocks=val_blocks,
         burn=burn,
     )
     if cl is not None:

@@ -206,8 +206,10 @@ class Saturation(Hypothesis):
     params = ("op_low", "op_high")
 
     def grid(self, ctx):
-        lo_c = [-np.inf] + list(np.percentile(ctx.op, [1, 3, 7, 15, 25, 40]))
-        hi_c = [np.inf] + list(np.percentile(ctx.op, [99, 97, 93, 85, 75, 60]))
+        # a controller that does not know the limit winds up beyond it, so the limit can
+        # sit anywhere in the OP distribution: scan it
+        lo_c = [-np.inf] + list(np.percentile(ctx.op, [1, 3, 6, 10, 15, 20, 30, 40, 50]))
+        hi_c = [np.inf] + list(np.percentile(ctx.op, [99, 97, 94, 90, 85, 80, 70, 60, 50]))
         return [np.array([lo, hi]) for lo in lo_c for hi in hi_c if lo < hi]
 
     def bounds(self, ctx):

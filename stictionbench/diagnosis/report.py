@@ -49,8 +49,8 @@ def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
     ax.plot(t, nom.pred, lw=1, label="nominal model")
     if d.missing_physics != "none":
         ax.plot(t, best.pred, lw=1, label=f"with {d.missing_physics}")
-    ax.axvline(t[d.train_end], color="grey", ls="--", lw=1)
-    ax.text(t[d.train_end], ax.get_ylim()[1], " validation →", va="top", fontsize=8)
+    for i, (a, b) in enumerate(d.val_blocks):
+        ax.axvspan(a, b, color="grey", alpha=0.12, label="validation" if i == 0 else None)
     ax.set(xlabel="time (s)", ylabel="PV (deviation)", title="Recording vs simulations")
     ax.legend(loc="lower left")
     paths.append(save_png(fig, out / "replay.png"))
@@ -128,7 +128,7 @@ def summary_markdown(d: Diagnosis) -> str:
     f = d.fit
     imp = 1 - f["improved"] / f["nominal"] if f["nominal"] else 0.0
     lines += [
-        f"- Fit on data the model did not see (validation, last 40 %): NRMSE "
+        f"- Fit on data the model did not see (validation blocks, shaded grey): NRMSE "
         f"{f['nominal']:.3f} with the nominal model, {f['improved']:.3f} with "
         f"{d.missing_physics} ({imp:.0%} better).",
         f"- Mismatch detected: {'yes' if d.mismatch_detected else 'no'} (residual variance "
