@@ -180,7 +180,7 @@ def closed_loop_replay(rec: Recording, m: NominalModel) -> dict[str, Any] | None
 
 
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = 0.01,
-             min_improvement: float = 0.05, hp_factor: float = 0.3,
+             min_improvement: float = 0.05, hp_factor: float = 0.3, lp_factor: float = 5.0,
              hypotheses: tuple[str, ...] | None = None) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``.
 
@@ -196,6 +196,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         Smallest relative NRMSE improvement on validation data that counts.
     hp_factor : float
         High-pass cut-off as a fraction of ``1/(2π(τ+θ))`` (slow-load rejection).
+    lp_factor : float
+        Low-pass cut-off in multiples of the process corner ``1/(2πτ)`` (noise rejection).
     hypotheses : tuple of str, optional
         Restrict the library (default: the whole vocabulary).
 
@@ -230,6 +232,9 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     Ts = rec.Ts
     tau, theta = model.time_constant, model.dead_time
     f_hp = hp_factor / (2 * math.pi * (tau + theta))
+    # above ~5 corner frequencies of the process, PV content caused by OP is attenuated
+    # more than five-fold: what is left there is measurement noise
+    f_lp = min(0.4 / Ts, lp_factor / (2 * math.pi * tau))
     burn = min(int(math.ceil((theta + 3 * tau) / Ts)), n // 5)
     edges = np.linspace(burn, n, N_BLOCKS + 1).round().astype(int)
     blocks = [np.arange(edges[i], edges[i + 1]) for i in range(N_BLOCKS)]
@@ -242,7 +247,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
                          f"model's time scales (θ + 3τ = {theta + 3 * tau:g} s)")
     ctx = Context(rec.t - rec.t[0], np.asarray(rec.OP, float), np.asarray(rec.PV, float),
                   Ts, tau, theta, f_hp)
-    prob = Problem(ctx, f_hp, train_idx, val_idx)
+    prob = Problem(ctx, f_hp, train_idx, val_idx, f_lp)
     # recording convention: historians store OP either before or after the controller
     # executes, which shifts the apparent dead time by one sample. That is bookkeeping,
     # not physics: every hypothesis (the nominal one included) may absorb a shift of ±1
@@ -255,7 +260,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         for shift in shifts if h.name != "dead_time" else (0.0,):
             ctx_s = Context(ctx.t, ctx.op, ctx.pv, Ts, tau, theta + shift, f_hp,
                             ctx.resid_periods)
-            ft = fit_hypothesis(Problem(ctx_s, f_hp, prob.train, prob.val), h)
+            ft = fit_hypothesis(Problem(ctx_s, f_hp, prob.train, prob.val, f_lp), h)
             ft.extra = {**ft.extra, "timing_shift_s": shift}
             if best is None or ft.cost_train < best.cost_train * (1 - 1e-9):
                 best = ft
@@ -281,7 +286,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
                 _, tau_h, theta_h = fit_fopdt(mv, ctx.pv, Ts, hp_factor)
                 ctx_h = Context(ctx.t, ctx.op, ctx.pv, Ts, tau_h, theta_h, f_hp,
                                 ctx.resid_periods)
-                prob_h = Problem(ctx_h, f_hp, prob.train, prob.val)
+                prob_h = Problem(ctx_h, f_hp, prob.train, prob.val, f_lp)
                 refit = fit_hypothesis(prob_h, h)
                 refit.n_params += 2  # τ and θ were fitted for this hypothesis
                 refit.extra = {**refit.extra, "time_constant": tau_h, "dead_time": theta_h}
@@ -328,8 +333,13 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
                        "significant": r["significant"], "parameters": r["parameters"]}
                       for r in rows), key=lambda r: r["score"])
     chosen = fits[pick]
-    # ---- locate (nominal residual over the whole record after the burn-in)
-    r_nom = base.resid
+    # ---- locate: the nominal residual over the whole record after the burn-in, high-
+    # passed only (the white measurement noise sets the floor it is compared with)
+    h0 = Nominal()
+    ctx0 = Context(ctx.t, ctx.op, ctx.pv, Ts, tau, theta + base.extra.get("timing_shift_s", 0.0),
+                   f_hp)
+    X0 = highpass(h0.regressors(ctx0, np.zeros(0)), Ts, f_hp)
+    r_nom = highpass(ctx.pv, Ts, f_hp) - X0 @ base.beta
     sigma = noise_floor(r_nom[burn:])
     w = max(10, int(round((tau + theta) / Ts)))
     windows = mismatch_windows(rec.t, r_nom, sigma, w, start=burn)
@@ -342,6 +352,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         "residual_to_noise_variance": ratio,
         "noise_floor": sigma,
         "highpass_hz": f_hp,
+        "lowpass_hz": f_lp,
         "timing_shift_s": nominal.extra.get("timing_shift_s", 0.0),
         "burn_in_samples": int(burn),
         "validation_windows": val_blocks,

@@ -37,18 +37,20 @@ class Fit:
 
 
 class Problem:
-    """The data of one diagnosis: high-passed PV, training and validation rows."""
+    """The data of one diagnosis: band-passed PV, training and validation rows."""
 
-    def __init__(self, ctx: Context, f_hp: float | None, train: slice, val: slice) -> None:
+    def __init__(self, ctx: Context, f_hp: float | None, train: np.ndarray,
+                 val: np.ndarray, f_lp: float | None = None) -> None:
         self.ctx = ctx
         self.f_hp = f_hp
-        self.y = highpass(ctx.pv, ctx.Ts, f_hp)
+        self.f_lp = f_lp
+        self.y = highpass(ctx.pv, ctx.Ts, f_hp, f_lp)
         self.train = train
         self.val = val
 
     def evaluate(self, h: Hypothesis, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """Return ``(train MSE, linear coefficients, high-passed prediction)``."""
-        X = highpass(h.regressors(self.ctx, p), self.ctx.Ts, self.f_hp)
+        X = highpass(h.regressors(self.ctx, p), self.ctx.Ts, self.f_hp, self.f_lp)
         if X.ndim == 1:
             X = X[:, None]
         Xt, yt = X[self.train], self.y[self.train]

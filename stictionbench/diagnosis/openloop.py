@@ -118,16 +118,22 @@ def equal_percentage(op: np.ndarray, rangeability: float) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=64)
-def _hp_gain(n: int, Ts: float, f_c: float) -> np.ndarray:
+def _hp_gain(n: int, Ts: float, f_c: float, f_lp: float | None) -> np.ndarray:
     f = sfft.rfftfreq(n, Ts)
     r = (f / f_c) ** 4
-    return r / (1.0 + r)
+    g = r / (1.0 + r)
+    if f_lp:
+        g = g / (1.0 + (f / f_lp) ** 4)
+    return g
 
 
-def highpass(x: np.ndarray, Ts: float, f_c: float | None) -> np.ndarray:
+def highpass(x: np.ndarray, Ts: float, f_c: float | None,
+             f_lp: float | None = None) -> np.ndarray:
     """Zero-phase high-pass at ``f_c`` Hz with the magnitude of a 2nd-order Butterworth
     applied forwards and backwards, ``|H|² = (f/f_c)⁴/(1 + (f/f_c)⁴)``; mean removal
-    only when ``f_c`` is None.
+    only when ``f_c`` is None. With ``f_lp`` a zero-phase 2nd-order Butterworth low-pass
+    is applied as well (a band-pass): measurement noise far above the process bandwidth
+    carries no information about the loop and is left out of the comparison.
 
     Implemented in the frequency domain after removing the straight line through the
     end points (so the circular FFT sees no jump, and zero-padding to a fast length
@@ -149,5 +155,5 @@ def highpass(x: np.ndarray, Ts: float, f_c: float | None) -> np.ndarray:
     # adds no jump
     m = sfft.next_fast_len(n, real=True)
     X = sfft.rfft(x - line, n=m, axis=0)
-    g = _hp_gain(m, float(Ts), float(f_c))
+    g = _hp_gain(m, float(Ts), float(f_c), None if f_lp is None else float(f_lp))
     return sfft.irfft(X * (g if x.ndim == 1 else g[:, None]), n=m, axis=0)[:n]
