@@ -23,6 +23,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "stictionbench.diagnosis.command",
     "stictionbench.sweep.command",
     "stictionbench.quality_command",
+    "stictionbench.batch_command",
 )
 
 

@@ -126,10 +126,15 @@ def fit_fopdt(u: np.ndarray, pv: np.ndarray, Ts: float,
             c, _ = cost(tau, th)
             if c < best[0]:
                 best = (c, tau, th)
-    res = minimize(lambda z: cost(math.exp(z[0]), max(z[1], 0.0))[0],
+    tau_max, theta_max = max(2 * Ts, T / 2), max(Ts, T / 4)
+
+    def clip(z):
+        return (min(math.exp(min(z[0], 50.0)), tau_max), min(max(z[1], 0.0), theta_max))
+
+    res = minimize(lambda z: cost(*clip(z))[0],
                    [math.log(best[1]), best[2]], method="Nelder-Mead",
                    options={"xatol": 1e-3, "fatol": 1e-10, "maxiter": 200})
-    tau, theta = math.exp(res.x[0]), max(float(res.x[1]), 0.0)
+    tau, theta = clip(res.x)
     if res.fun > best[0]:
         tau, theta = best[1], best[2]
     _, K = cost(tau, theta)
