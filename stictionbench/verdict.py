@@ -7,16 +7,26 @@ cycle (apparent stiction, fit residual, axis ratio), the model-free diagnosis
 (:func:`stictionbench.diagnosis.diagnose`, fitted S/J) — and the verdict follows from
 the rule :class:`StictionRule`.
 
-The rule (Horch 1999; Choudhury et al. 2006): in a self-regulating loop a *linear*
-oscillation (tight tuning, an external disturbance) keeps OP and PV in counter-phase, so
-the band-passed PV–OP cycle collapses to a line; a sticking valve makes OP (the integral
-of the error) and PV (the valve's square-ish position through the process) move about a
-quarter cycle apart, and the cycle opens into an ellipse. The ellipse's minor/major
-axis ratio in standardised coordinates is ``tan(φ/2)`` for a phase lag ``φ``; the rule
-calls stiction when the cycle is an ellipse (fit residual at most ``max_residual``) that
-is open enough (``axis_ratio ≥ min_axis_ratio``, default 0.3 ≈ 33°). Known limit:
-integrating (level) loops oscillate a quarter cycle apart without stiction; their
-ellipses are narrower in the data here but the rule has no special case for them.
+The rule, and what it measures. With a constant set point the controller ties OP to PV
+by a *linear* map, ``OP = −C(s)·PV``, whatever causes the oscillation; for an ideal PI
+``∠C(jω) = −atan(1/(ω·Ti))``. The band-passed PV–OP cycle is therefore an ellipse whose
+opening is set by how slow the oscillation is compared with the integral time: its
+minor/major axis ratio in standardised coordinates is ``tan(φ/2)`` with
+``φ ≈ atan(1/(ω·Ti))``. Oscillations caused by tight tuning sit near the loop's
+crossover, where the proportional action dominates (φ small, a thin cycle: Horch's
+even cross-correlation, Horch 1999); a sticking valve produces a limit cycle much slower
+than the integral time, because the integrator has to wind the controller output
+through the whole stick band (φ → 90°, an open ellipse; Choudhury et al. 2006 quantify
+stiction on this ellipse). The rule calls stiction when the cycle is an ellipse (fit
+residual at most ``max_residual``) that is open enough (``axis_ratio ≥ min_axis_ratio``;
+the default 0.3 means φ ≥ 33°, i.e. a period longer than about 4·Ti for a PI loop).
+
+Known limits, stated rather than hidden: an external disturbance *slower* than about
+4·Ti opens the ellipse as well and is called stiction (``tests/test_batch.py`` shows
+it); integrating (level) loops add another 90° of their own; a historian that stores OP
+one scan late adds ``360°·Ts/P``, which opens fast cycles. The defaults were chosen
+after looking at the ISDB and refinery loops; ``stictionbench batch`` reports
+leave-one-group-out scores with the thresholds re-tuned without each held-out loop.
 """
 
 from __future__ import annotations

@@ -1,0 +1,110 @@
+"""Batch verdicts: the rule on simulated loops, group scoring, LOGO, the CLI, real data."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+
+import stictionbench as sb
+from stictionbench.cli import main
+from stictionbench.io import write_recording
+from stictionbench.scoring import balanced_accuracy, group_verdicts, logo
+from stictionbench.verdict import StictionRule, assess
+
+COMMON = dict(duration=3000.0, sample_time=1.0, sensor="noisy", setpoint="constant",
+              controller__sample_time=1.0)
+
+
+@pytest.fixture(scope="module")
+def loops():
+    return {
+        "sticky": sb.simulate("stiction", seed=1, valve__Fs=300.0, valve__Fc=150.0, **COMMON),
+        # tuning oscillation near the loop crossover (Kc close to the ultimate 0.524)
+        "tight": sb.simulate("tight", seed=1, valve="linear", controller__kc=0.5, **COMMON),
+    }
+
+
+def test_rule_on_simulated_loops(loops):
+    assert assess(loops["sticky"], "sticky", run_diagnosis=False)["verdict"] == "stiction"
+    e = assess(loops["tight"], "tight", run_diagnosis=False)
+    assert e["verdict"] == "no_stiction", e
+
+
+@pytest.mark.parametrize("period", [60.0, 100.0, 300.0])
+def test_cycle_opening_is_set_by_the_controller(period):
+    """The PV–OP phase is ∠C(jω) = atan(1/(ω·Ti)) whatever the cause (plus one sample of
+    the simulator's recording convention, OP stored before the controller executes):
+    the documented limit of the rule — a disturbance slower than ~4·Ti is called
+    stiction."""
+    import math
+
+    rec = sb.simulate("disturbance", seed=2, valve="linear", disturbance__period=period,
+                      **COMMON)
+    e = assess(rec, "d", run_diagnosis=False)
+    expected = math.degrees(math.atan(period / (2 * math.pi * 10.0))) + 360.0 / period
+    assert e["op_pv_phase_deg"] == pytest.approx(expected, abs=4.0)
+    assert e["verdict"] == "stiction"
+
+
+def test_group_scoring_and_logo():
+    def e(name, group, label, ar):
+        return {"name": name, "group": group, "label": label, "verdict": None,
+                "ellipse_axis_ratio": ar, "ellipse_residual": 0.1}
+
+    entries = [e("a1", "A", "stiction", 0.8), e("a2", "A", "stiction", 0.1),
+               e("a3", "A", "stiction", 0.7), e("b1", "B", "no_stiction", 0.05),
+               e("c1", "C", "disturbance", 0.1), e("d1", "D", "stiction", 0.6)]
+    gv = group_verdicts(entries, StictionRule())
+    assert list(gv["verdict"]) == ["stiction", "no_stiction", "no_stiction", "stiction"]
+    assert list(gv["label"]) == ["stiction", "no_stiction", "no_stiction", "stiction"]
+    ba, conf = balanced_accuracy(gv)
+    assert ba == 1.0 and conf.loc["stiction", "stiction"] == 2
+    ba_logo, rows = logo(entries, StictionRule())
+    assert len(rows) == 4 and 0.0 <= ba_logo <= 1.0
+    # a window-level majority never lets one bad window flip a loop
+    entries[0]["ellipse_axis_ratio"] = 0.05
+    assert group_verdicts(entries, StictionRule())["verdict"][0] == "no_stiction"  # 1 of 3
+
+
+def test_batch_cli(loops, tmp_path, capsys):
+    d = tmp_path / "data"
+    d.mkdir()
+    for name, rec in loops.items():
+        write_recording(rec, d / f"{name}.csv")
+    (d / "notes.csv").write_text("a,b\n1,2\n")
+    (d / "labels.csv").write_text("loop,label\nsticky,stiction\ntight,no_stiction\n")
+    out = tmp_path / "b.json"
+    rep = tmp_path / "rep"
+    assert main(["batch", str(d), "--labels", str(d / "labels.csv"), "--json", str(out),
+                 "--report", str(rep), "--jobs", "1"]) == 0
+    res = json.loads(out.read_text())
+    names = {r["name"]: r for r in res["recordings"]}
+    assert set(names) == {"sticky", "tight"}
+    for r in names.values():
+        assert {"name", "verdict", "missing_physics", "confidence", "fitted_S", "fitted_J",
+                "oscillation_period_s", "apparent_stiction"} <= set(r)
+    assert {s["file"] for s in res["skipped"]} == {"notes.csv", "labels.csv"}
+    assert res["scores"]["balanced_accuracy_by_group"] == 1.0
+    for f in ("entries.md", "groups.csv", "logo.csv", "confusion.md", "summary.md",
+              "timeseries.png", "phase.png"):
+        assert (rep / f).is_file()
+    assert "balanced accuracy by loop" in capsys.readouterr().out
+    assert main(["batch", str(tmp_path / "nothing"), "--json", str(out)]) == 2
+
+
+def test_isdb_balanced_accuracy(data_dir):
+    from stictionbench.datasets import load_csv_dir
+
+    recs, _ = load_csv_dir(data_dir / "isdb", warn=False)
+    entries = []
+    for name, rec in recs.items():
+        e = assess(rec, name, run_diagnosis=False)
+        e.update(group=rec.meta["group"], label=rec.meta["label"])
+        entries.append(e)
+    ba, _ = balanced_accuracy(group_verdicts(entries, StictionRule()))
+    assert ba >= 0.9
+    ba_logo, _ = logo(entries, StictionRule())
+    assert ba_logo >= 0.85
+    assert pd.notna(ba)
