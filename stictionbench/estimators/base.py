@@ -165,3 +165,13 @@ def check_signal(x: np.ndarray, name: str, *, min_len: int = 1) -> np.ndarray:
     if np.ptp(x) == 0.0:
         raise InputError(f"{name}: constant signal (spectra and coherence are undefined)")
     return x
+
+
+def check_pair(name: str, x: np.ndarray, y: np.ndarray | None, *,
+               min_len: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Check the two signals of a delay estimator (``x`` = OP, ``y`` = MV) with
+    :func:`check_signal`; a missing ``y`` is an InputError naming the estimator."""
+    if y is None:
+        raise InputError(f"{name}: needs two signals (x = OP, y = MV)")
+    return (check_signal(x, f"{name} x", min_len=min_len),
+            check_signal(y, f"{name} y", min_len=min_len))

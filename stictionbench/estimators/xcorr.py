@@ -13,9 +13,8 @@ from typing import Any
 import numpy as np
 
 from .. import hosa
-from ..errors import InputError
 from ..recording import Recording
-from .base import EstimateResult, Estimator, check_signal
+from .base import EstimateResult, Estimator, check_pair
 
 MEANING = "y lags x (stiction indicated)"
 
@@ -85,10 +84,7 @@ class XCorr(Estimator):
     def _estimate(
         self, x: np.ndarray, y: np.ndarray | None, rec: Recording
     ) -> EstimateResult:
-        if y is None:
-            raise InputError(f"{self.name}: needs two signals (x = OP, y = MV)")
-        x = check_signal(x, f"{self.name} x")
-        y = check_signal(y, f"{self.name} y")
+        x, y = check_pair(self.name, x, y)
         st = hosa.tder_settings(x.size, self.max_delay, self.segsamp, self.overlap, self.nfft)
         res = hosa.tder(x, y, self.max_delay, st.segsamp, self.overlap, st.nfft)
         delay = float(res.delay)

@@ -15,7 +15,7 @@ import numpy as np
 from .. import hosa
 from ..errors import InputError
 from ..recording import Recording
-from .base import EstimateResult, Estimator, check_signal
+from .base import EstimateResult, Estimator, check_pair
 from .xcorr import MEANING, top_peaks
 
 
@@ -62,10 +62,7 @@ class XCum(Estimator):
     def _estimate(
         self, x: np.ndarray, y: np.ndarray | None, rec: Recording
     ) -> EstimateResult:
-        if y is None:
-            raise InputError(f"{self.name}: needs two signals (x = OP, y = MV)")
-        x = check_signal(x, f"{self.name} x")
-        y = check_signal(y, f"{self.name} y")
+        x, y = check_pair(self.name, x, y)
         res = hosa.tde(x, y, self.max_delay, self.nsamp, self.rank)
         delay = int(res.delay)
         max_delay = int(self.max_delay)
