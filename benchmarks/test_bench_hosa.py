@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import csv
 import os
-import re
 import statistics
 import timeit
 from collections.abc import Callable
@@ -38,7 +37,6 @@ pytestmark = pytest.mark.skipif(
     not REFERENCE.exists(), reason=f"shared data not present: {REFERENCE}"
 )
 
-CALL = re.compile(r"^\s*(\w+)\s*\((.*)\)\s*$")
 
 #: our best time per case, filled by the per-row benchmarks, read by the summary
 TIMES: dict[str, float] = {}
@@ -57,26 +55,10 @@ def read_rows(name: str) -> list[dict[str, str]]:
 
 
 def load_signals(name: str) -> dict[str, np.ndarray]:
-    path = REFERENCE / "signals" / f"{name}.csv"
-    if path.open().readline()[:1].isalpha():
-        data = np.genfromtxt(path, delimiter=",", names=True)
-        return {k: np.asarray(data[k], float) for k in data.dtype.names}
-    return {"y": np.loadtxt(path, delimiter=",", ndmin=2)}
+    return hosa.read_signals(str(REFERENCE / "signals" / f"{name}.csv"))
 
 
-def parse_call(call: str, signals: dict[str, np.ndarray]) -> tuple[Callable, list[Any]]:
-    m = CALL.match(call)
-    assert m, call
-    args: list[Any] = []
-    for tok in (t.strip() for t in m.group(2).split(",") if t.strip()):
-        if tok in signals:
-            args.append(signals[tok])
-        elif tok == "[]":
-            args.append(None)
-        else:
-            v = float(tok)
-            args.append(int(v) if v == int(v) else v)
-    return getattr(hosa, m.group(1)), args
+parse_call = hosa.parse_call
 
 
 ROWS = read_rows("delays.csv") + read_rows("bicoherence.csv")

@@ -29,6 +29,7 @@ Bad input raises :class:`stictionbench.errors.InputError` with a one-line messag
 from __future__ import annotations
 
 import math
+import re
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -735,3 +736,45 @@ def bicoher_peak(
     j = int(np.argmax(cand.ravel(order="F")))
     r, c = np.unravel_index(j, b.shape, order="F")
     return top, float(w[r]), float(w[c])
+
+
+# ------------------------------------------------------------------ MATLAB call strings
+_CALL = re.compile(r"^\s*(\w+)\s*\((.*)\)\s*$")
+
+
+def parse_call(call: str, signals: dict[str, np.ndarray]) -> tuple[Any, list[Any]]:
+    """Turn a MATLAB call as written in the reference files into ``(function, args)``.
+
+    ``"tde(y, x, 30, 128)"`` → ``(tde, [y, x, 30, 128])``; names are looked up in
+    ``signals``, ``[]`` becomes ``None`` (MATLAB's "default"), numbers stay numbers.
+
+    Raises
+    ------
+    InputError
+        When the string is not a call of a function of this module.
+    """
+    m = _CALL.match(call)
+    fn = globals().get(m.group(1)) if m else None
+    if m is None or m.group(1) not in ("tder", "tde", "bicoher") or fn is None:
+        raise InputError(f"cannot parse MATLAB call {call!r}")
+    args: list[Any] = []
+    for tok in (t.strip() for t in m.group(2).split(",") if t.strip()):
+        if tok in signals:
+            args.append(signals[tok])
+        elif tok == "[]":
+            args.append(None)
+        else:
+            v = float(tok)
+            args.append(int(v) if v == int(v) else v)
+    return fn, args
+
+
+def read_signals(path: str) -> dict[str, np.ndarray]:
+    """Reference input signals: ``{"x", "y"}`` columns of a headed CSV, or
+    ``{"y": matrix}`` (one record per column) for a bare one."""
+    with open(path) as fh:
+        first = fh.readline()
+    if first[:1].isalpha():
+        data = np.genfromtxt(path, delimiter=",", names=True)
+        return {k: np.asarray(data[k], float) for k in data.dtype.names}
+    return {"y": np.loadtxt(path, delimiter=",", ndmin=2)}

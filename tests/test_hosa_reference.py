@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import csv
 import os
-import re
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +22,6 @@ RTOL = 1e-10
 #: absolute tolerance as a fraction of max |curve| (for entries near zero)
 ATOL_FRAC = 1e-12
 
-CALL = re.compile(r"^\s*(\w+)\s*\((.*)\)\s*$")
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:
@@ -32,30 +30,10 @@ def read_rows(path: Path) -> list[dict[str, str]]:
 
 
 def load_signals(ref: Path, name: str) -> dict[str, np.ndarray]:
-    """``{"x": ..., "y": ...}`` from a headed CSV, or ``{"y": matrix}`` for a bare one."""
-    path = ref / "signals" / f"{name}.csv"
-    first = path.open().readline()
-    if first[:1].isalpha():
-        data = np.genfromtxt(path, delimiter=",", names=True)
-        return {k: np.asarray(data[k], float) for k in data.dtype.names}
-    return {"y": np.loadtxt(path, delimiter=",", ndmin=2)}
+    return hosa.read_signals(str(ref / "signals" / f"{name}.csv"))
 
 
-def parse_call(call: str, signals: dict[str, np.ndarray]):
-    """``"tde(y, x, 30, 128)"`` -> (hosa.tde, [y, x, 30, 128]); ``[]`` -> None."""
-    m = CALL.match(call)
-    assert m, f"cannot parse call {call!r}"
-    fn = getattr(hosa, m.group(1))
-    args = []
-    for tok in (t.strip() for t in m.group(2).split(",") if t.strip()):
-        if tok in signals:
-            args.append(signals[tok])
-        elif tok == "[]":
-            args.append(None)
-        else:
-            v = float(tok)
-            args.append(int(v) if v == int(v) else v)
-    return fn, args
+parse_call = hosa.parse_call
 
 
 def run_call(ref: Path, row: dict[str, str]):
