@@ -17,7 +17,9 @@ import numpy as np
 from ..errors import InputError
 
 
-def _num(key: str, value: object, *, low: float | None = None, strict: bool = False) -> float:
+def number(key: str, value: object, *, low: float | None = None, strict: bool = False) -> float:
+    """A finite number from a config value, ``≥ low`` (``> low`` when ``strict``);
+    InputError naming ``key`` otherwise."""
     try:
         v = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
@@ -60,9 +62,9 @@ class FOPDT:
         ``y[k+1] = a·y[k] + K·(w_old·u[k−d−1] + w_new·u[k−d])`` with ``a = e^{−dt/τ}``,
         ``θ = (d + f)·dt``, ``w_old = a^{1−f} − a``, ``w_new = 1 − a^{1−f}``.
         """
-        K = _num("process.gain", self.gain)
-        tau = _num("process.time_constant", self.time_constant, low=0.0, strict=True)
-        theta = _num("process.dead_time", self.dead_time, low=0.0)
+        K = number("process.gain", self.gain)
+        tau = number("process.time_constant", self.time_constant, low=0.0, strict=True)
+        theta = number("process.dead_time", self.dead_time, low=0.0)
         a = math.exp(-dt / tau)
         d_real = theta / dt
         d = int(math.floor(d_real + 1e-9))
@@ -101,14 +103,14 @@ class PIController:
     op0: float = 50.0
 
     def params(self) -> np.ndarray:
-        kc = _num("controller.kc", self.kc)
-        ti = _num("controller.ti", self.ti, low=0.0, strict=True)
-        hc = _num("controller.sample_time", self.sample_time, low=0.0, strict=True)
-        lo = _num("controller.op_low", self.op_low)
-        hi = _num("controller.op_high", self.op_high)
+        kc = number("controller.kc", self.kc)
+        ti = number("controller.ti", self.ti, low=0.0, strict=True)
+        hc = number("controller.sample_time", self.sample_time, low=0.0, strict=True)
+        lo = number("controller.op_low", self.op_low)
+        hi = number("controller.op_high", self.op_high)
         if not lo < hi:
             raise InputError("controller.op_low must be below controller.op_high")
-        op0 = min(max(_num("controller.op0", self.op0), lo), hi)
+        op0 = min(max(number("controller.op0", self.op0), lo), hi)
         return np.array([kc, ti, hc, lo, hi, op0])
 
 
@@ -121,11 +123,11 @@ class Sensor:
     noise_std: float = 0.0
 
     def lag_factor(self, dt: float) -> float:
-        tau = _num("sensor.time_constant", self.time_constant, low=0.0)
+        tau = number("sensor.time_constant", self.time_constant, low=0.0)
         return 0.0 if tau == 0.0 else math.exp(-dt / tau)
 
     def noise(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        sd = _num("sensor.noise_std", self.noise_std, low=0.0)
+        sd = number("sensor.noise_std", self.noise_std, low=0.0)
         return sd * rng.standard_normal(n) if sd > 0 else np.zeros(n)
 
 
@@ -156,16 +158,16 @@ class Disturbance:
     load_time_constant: float = 200.0
 
     def generate(self, t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        amp = _num("disturbance.amplitude", self.amplitude)
+        amp = number("disturbance.amplitude", self.amplitude)
         out = np.zeros_like(t)
         if amp != 0.0:
-            period = _num("disturbance.period", self.period, low=0.0, strict=True)
-            start = _num("disturbance.start", self.start, low=0.0)
+            period = number("disturbance.period", self.period, low=0.0, strict=True)
+            start = number("disturbance.start", self.start, low=0.0)
             on = t >= start
             out[on] = amp * np.sin(2 * np.pi * (t[on] - start) / period + float(self.phase))
-        sd = _num("disturbance.load_std", self.load_std, low=0.0)
+        sd = number("disturbance.load_std", self.load_std, low=0.0)
         if sd > 0.0:
-            out += load_walk(t, sd, _num("disturbance.load_time_constant",
+            out += load_walk(t, sd, number("disturbance.load_time_constant",
                                          self.load_time_constant, low=0.0, strict=True), rng)
         return out
 
@@ -194,11 +196,12 @@ class SetPoint:
     steps: Sequence[Sequence[float]] = field(default_factory=list)
 
     def generate(self, t: np.ndarray) -> np.ndarray:
-        sp = np.full_like(t, _num("setpoint.initial", self.initial))
+        sp = np.full_like(t, number("setpoint.initial", self.initial))
         for i, step in enumerate(self.steps or []):
             try:
                 when, size = step
             except (TypeError, ValueError):
                 raise InputError(f"setpoint.steps[{i}]: expected [time, size]") from None
-            sp[t >= _num(f"setpoint.steps[{i}][0]", when)] += _num(f"setpoint.steps[{i}][1]", size)
+            when = number(f"setpoint.steps[{i}][0]", when)
+            sp[t >= when] += number(f"setpoint.steps[{i}][1]", size)
         return sp

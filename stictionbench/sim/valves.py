@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import InputError
+from .blocks import number
 
 # valve kind codes used by the kernel
 LINEAR, PHYSICAL, CHOUDHURY, KANO, HE, BACKLASH = 0, 1, 2, 3, 4, 5
@@ -43,13 +44,8 @@ STATE_SIZE = 6
 
 
 def _positive(name: str, value: float, *, allow_zero: bool = False) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"valve.{name}: not a number ({value!r})") from None
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise InputError(f"valve.{name}: must be {'≥' if allow_zero else '>'} 0, got {value!r}")
-    return v
+    """A valve parameter ≥ 0 (> 0 unless ``allow_zero``), checked by the blocks' rule."""
+    return number(f"valve.{name}", value, low=0.0, strict=not allow_zero)
 
 
 @dataclass(frozen=True)
