@@ -6,7 +6,7 @@ STAMP   := $(VENV)/.installed
 export MPLBACKEND := Agg
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 
-.PHONY: venv test replicate bench lint clean real concealed
+.PHONY: venv test test-slurm replicate sweep-paper bench lint clean real concealed
 
 venv: $(STAMP)
 
@@ -17,10 +17,24 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 test: venv
-	$(BIN)/python -m pytest -q -m "not slow and not benchmark" -p no:cacheprovider
+	$(BIN)/python -m pytest -q -m "not slow and not benchmark and not slurm" -p no:cacheprovider \
+		--doctest-modules tests stictionbench
+
+# the sweep on a real one-node SLURM cluster (root; installs Debian's slurm the first time)
+SLURM_LOCAL ?= ../shared/tools/slurm-local.sh
+test-slurm: venv
+	bash $(SLURM_LOCAL) start
+	$(BIN)/python -m pytest -q -m slurm -p no:cacheprovider tests/test_slurm.py; \
+		rc=$$?; bash $(SLURM_LOCAL) stop; exit $$rc
 
 replicate: venv
 	$(BIN)/stictionbench replicate
+
+# the replication's sensitivity sweeps (conf/sweep/paper_*.yaml, about 2400 runs, a few
+# minutes on 2 cores); results go to reports/sweeps/paper_*/ and `make replicate` reads them
+PAPER_SWEEPS := paper_cases paper_sampling paper_noise paper_magnitude paper_period paper_margin
+sweep-paper: venv
+	for s in $(PAPER_SWEEPS); do $(BIN)/stictionbench sweep sweep=$$s || exit $$?; done
 
 bench: venv
 	$(BIN)/python -m pytest benchmarks -q -s -m "benchmark" -p no:cacheprovider --benchmark-columns=min,median,mean,rounds
@@ -29,14 +43,15 @@ bench: venv
 # model-free diagnosis of the ISDB stiction loops
 DATA ?= ../shared/data
 real: venv
-	$(BIN)/stictionbench batch $(DATA)/isdb --labels $(DATA)/isdb/labels.csv --json reports/real/isdb/batch.json --report reports/real/isdb
-	$(BIN)/stictionbench batch $(DATA)/plant --labels $(DATA)/plant/labels.csv --json reports/real/plant/batch.json --report reports/real/plant
+	$(BIN)/stictionbench compare $(DATA)/isdb $(DATA)/plant --out reports/real --consensus conf/consensus/default.yaml
+	$(BIN)/stictionbench batch $(DATA)/isdb --labels $(DATA)/isdb/labels.csv --diagnose flagged --json reports/real/isdb/batch.json --report reports/real/isdb
+	$(BIN)/stictionbench batch $(DATA)/plant --labels $(DATA)/plant/labels.csv --diagnose flagged --json reports/real/plant/batch.json --report reports/real/plant
 	$(BIN)/stictionbench oscillation-benchmark $(DATA)/isdb-oscillation/benchmark.mat --out reports/real/oscillation
 	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
 
-# concealed-data benchmark of the diagnosis (about 3 minutes on 2 cores)
+# concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out (about 10 minutes on 2 cores)
 concealed: venv
-	$(BIN)/python experiments/concealed.py --seeds 10
+	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2
 
 lint: venv
 	$(BIN)/ruff check stictionbench tests benchmarks experiments

@@ -21,12 +21,12 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from stictionbench.datasets import load_csv_dir  # noqa: E402
 from stictionbench.diagnosis import diagnose  # noqa: E402
 from stictionbench.diagnosis.report import write_report  # noqa: E402
 from stictionbench.io import write_text  # noqa: E402
+from stictionbench.realdata.datasets import load_csv_dir  # noqa: E402
+from stictionbench.realdata.verdict import decimate_mean  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
-from stictionbench.verdict import decimate_mean  # noqa: E402
 
 
 def main(argv=None) -> int:

@@ -472,6 +472,19 @@ def _normal_equations(
     return au + np.triu(au, 1).T, rhs
 
 
+def tde_system(x: np.ndarray, y: np.ndarray, m: int, nsamp: int) -> tuple[np.ndarray, np.ndarray]:
+    """The normal equations ``A·b = r`` that :func:`tde` solves (``A`` is ``(2m+1)²``).
+
+    Exposed so that callers can judge the solve: ``np.linalg.cond(A)`` near 1e10 or
+    more means the third-order cumulants of ``x`` carry almost no information (a
+    nearly symmetric ``x``) and the arg-max of ``|a(k)|`` is decided by round-off.
+    """
+    rxxx, rxyx = _cumulants(np.asarray(x, float), np.asarray(y, float), m, nsamp)
+    if not np.any(rxyx):
+        raise InputError("tde: all cross-cumulants of y with x are zero (y constant per record)")
+    return _normal_equations(rxxx, rxyx, m)
+
+
 def tde(x: Any, y: Any, max_delay: Any, nsamp: Any = None, rank: Any = None) -> TdeResult:
     """Delay from third-order cross-cumulants (HOSA ``tde``; the paper's "tder3").
 
@@ -543,10 +556,7 @@ def tde(x: Any, y: Any, max_delay: Any, nsamp: Any = None, rank: Any = None) -> 
     if rk is not None and rk > p:
         raise InputError(f"tde: rank={rk} exceeds the matrix size 2*max_delay+1 = {p}")
 
-    rxxx, rxyx = _cumulants(x, y, m, ns)
-    if not np.any(rxyx):
-        raise InputError("tde: all cross-cumulants of y with x are zero (y constant per record)")
-    a_mat, rhs = _normal_equations(rxxx, rxyx, m)
+    a_mat, rhs = tde_system(x, y, m, ns)
     if rk is None:
         try:
             b = np.linalg.solve(a_mat, rhs)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -44,6 +45,45 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+
+
+@contextlib.contextmanager
+def atomic_directory(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield an empty staging directory; on success its files replace those in ``path``.
+
+    Every file written under the staging directory is moved into ``path`` (same relative
+    name) only after the ``with`` block ends without an exception; on any exception the
+    staging directory is removed and ``path`` keeps its previous content. Files already in
+    ``path`` that the block did not write are left alone, so a partial run (one table)
+    never deletes the others. Each file is moved with :func:`os.replace`, so readers see
+    old or new content, never a half-written file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> with atomic_directory(d / "out") as stage:
+    ...     _ = (stage / "a.txt").write_text("x")
+    >>> sorted(p.name for p in (d / "out").iterdir())
+    ['a.txt']
+    """
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".staging",
+                                  dir=target.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    try:
+        yield stage
+        for src in sorted(stage.rglob("*")):
+            if src.is_dir():
+                continue
+            dst = target / src.relative_to(stage)
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            os.chmod(src, 0o666 & ~umask)
+            os.replace(src, dst)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 def write_text(path: str | os.PathLike[str], text: str) -> None:

@@ -100,60 +100,11 @@ class Recording:
             of missing values longer than 5 samples, or arrays of different lengths.
             Gaps of up to 5 missing samples are interpolated linearly.
         """
-        arrays: dict[str, np.ndarray | None] = {}
-        raw = {"t": t, "SP": SP, "PV": PV, "OP": OP, "MV": MV}
-        n = None
-        for name, value in raw.items():
-            if value is None:
-                arrays[name] = None
-                continue
-            try:
-                arr = np.asarray(value, dtype=float).reshape(-1)
-            except (TypeError, ValueError) as exc:
-                raise InputError(f"{source}: column {name} is not numeric ({exc})") from None
-            if n is None:
-                n = arr.size
-            elif arr.size != n:
-                raise InputError(
-                    f"{source}: column {name} has {arr.size} samples, expected {n}"
-                )
-            arrays[name] = arr.copy()
-        assert n is not None
-        if n < MIN_SAMPLES:
-            raise InputError(f"{source}: {n} samples; at least {MIN_SAMPLES} are needed")
-        notes: list[str] = []
-        for name, arr in arrays.items():
-            if arr is None:
-                continue
-            bad = np.isinf(arr)
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise InputError(
-                    f"{source}: row {i + first_row}, column {name}: infinite value"
-                )
-            missing = np.isnan(arr)
-            if missing.any():
-                if name == "t":
-                    i = int(np.argmax(missing))
-                    raise InputError(f"{source}: row {i + first_row}, column t: missing time")
-                _fill_gaps(arr, missing, name, source, first_row, notes)
+        arrays = _as_columns({"t": t, "SP": SP, "PV": PV, "OP": OP, "MV": MV}, source)
+        notes = _fill_missing(arrays, source, first_row)
         tt = arrays["t"]
         assert tt is not None
-        dt = np.diff(tt)
-        if np.any(dt <= 0):
-            i = int(np.argmax(dt <= 0)) + 1
-            raise InputError(
-                f"{source}: row {i + first_row}, column t: time is not strictly increasing"
-            )
-        Ts = float(np.median(dt))
-        off = np.abs(dt - Ts) > UNIFORM_TOLERANCE * Ts
-        if off.any():
-            i = int(np.argmax(off)) + 1
-            raise InputError(
-                f"{source}: row {i + first_row}, column t: sampling is not uniform "
-                f"(step {dt[i - 1]:g} s vs median {Ts:g} s); resample to a uniform grid "
-                f"first, e.g. pandas DataFrame.resample or numpy.interp"
-            )
+        Ts = _uniform_step(tt, source, first_row)
         if warn:
             for note in notes:
                 print(f"stictionbench: warning: {note}", file=sys.stderr)
@@ -231,6 +182,67 @@ class Recording:
             f"Recording(n={len(self)}, Ts={self.Ts:g}, columns={','.join(self.columns)}, "
             f"source={src!r})"
         )
+
+
+def _as_columns(raw: dict[str, Any], source: str) -> dict[str, np.ndarray | None]:
+    """Float copies of the given columns, all of one length of at least MIN_SAMPLES."""
+    arrays: dict[str, np.ndarray | None] = {}
+    n = None
+    for name, value in raw.items():
+        if value is None:
+            arrays[name] = None
+            continue
+        try:
+            arr = np.asarray(value, dtype=float).reshape(-1)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"{source}: column {name} is not numeric ({exc})") from None
+        if n is None:
+            n = arr.size
+        elif arr.size != n:
+            raise InputError(f"{source}: column {name} has {arr.size} samples, expected {n}")
+        arrays[name] = arr.copy()
+    assert n is not None
+    if n < MIN_SAMPLES:
+        raise InputError(f"{source}: {n} samples; at least {MIN_SAMPLES} are needed")
+    return arrays
+
+
+def _fill_missing(arrays: dict[str, np.ndarray | None], source: str,
+                  first_row: int) -> list[str]:
+    """Refuse infinities and missing times; interpolate short gaps in place (notes)."""
+    notes: list[str] = []
+    for name, arr in arrays.items():
+        if arr is None:
+            continue
+        bad = np.isinf(arr)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise InputError(f"{source}: row {i + first_row}, column {name}: infinite value")
+        missing = np.isnan(arr)
+        if missing.any():
+            if name == "t":
+                i = int(np.argmax(missing))
+                raise InputError(f"{source}: row {i + first_row}, column t: missing time")
+            _fill_gaps(arr, missing, name, source, first_row, notes)
+    return notes
+
+
+def _uniform_step(tt: np.ndarray, source: str, first_row: int) -> float:
+    """The sampling interval of a strictly increasing, uniform time column."""
+    dt = np.diff(tt)
+    if np.any(dt <= 0):
+        i = int(np.argmax(dt <= 0)) + 1
+        raise InputError(
+            f"{source}: row {i + first_row}, column t: time is not strictly increasing")
+    Ts = float(np.median(dt))
+    off = np.abs(dt - Ts) > UNIFORM_TOLERANCE * Ts
+    if off.any():
+        i = int(np.argmax(off)) + 1
+        raise InputError(
+            f"{source}: row {i + first_row}, column t: sampling is not uniform "
+            f"(step {dt[i - 1]:g} s vs median {Ts:g} s); resample to a uniform grid "
+            f"first, e.g. pandas DataFrame.resample or numpy.interp")
+    return Ts
 
 
 def _fill_gaps(

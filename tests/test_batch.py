@@ -10,8 +10,8 @@ import pytest
 import stictionbench as sb
 from stictionbench.cli import main
 from stictionbench.io import write_recording
-from stictionbench.scoring import balanced_accuracy, group_verdicts, logo
-from stictionbench.verdict import StictionRule, assess
+from stictionbench.realdata.scoring import balanced_accuracy, group_verdicts, logo
+from stictionbench.realdata.verdict import StictionRule, assess
 
 COMMON = dict(duration=3000.0, sample_time=1.0, sensor="noisy", setpoint="constant",
               controller__sample_time=1.0)
@@ -71,7 +71,10 @@ def test_group_scoring_and_logo():
 def test_batch_cli(loops, tmp_path, capsys):
     d = tmp_path / "data"
     d.mkdir()
-    for name, rec in loops.items():
+    # the published detectors need a regular oscillation: the paper's stiction loop has one
+    cli_loops = {"sticky": sb.simulate("stiction", seed=1, duration=3000, sample_time=1.0,
+                                       sensor="noisy"), "tight": loops["tight"]}
+    for name, rec in cli_loops.items():
         write_recording(rec, d / f"{name}.csv")
     (d / "notes.csv").write_text("a,b\n1,2\n")
     (d / "labels.csv").write_text("loop,label\nsticky,stiction\ntight,no_stiction\n")
@@ -84,10 +87,16 @@ def test_batch_cli(loops, tmp_path, capsys):
     assert set(names) == {"sticky", "tight"}
     for r in names.values():
         assert {"name", "verdict", "missing_physics", "confidence", "fitted_S", "fitted_J",
-                "oscillation_period_s", "apparent_stiction"} <= set(r)
+                "oscillation_period_s", "apparent_stiction", "methods"} <= set(r)
+        assert {"horch", "he", "area_ratio", "kano", "yamashita", "choudhury"} <= set(
+            r["methods"])
+        assert all(v["verdict"] in ("stiction", "no_stiction", "inconclusive")
+                   and v["reason"] for v in r["methods"].values())
+    assert names["sticky"]["verdict"] == "stiction"
+    assert names["tight"]["verdict"] == "no_stiction"
     assert {s["file"] for s in res["skipped"]} == {"notes.csv", "labels.csv"}
     assert res["scores"]["balanced_accuracy_by_group"] == 1.0
-    for f in ("entries.md", "groups.csv", "logo.csv", "confusion.md", "summary.md",
+    for f in ("entries.md", "methods.md", "groups.csv", "logo.csv", "confusion.md", "summary.md",
               "timeseries.png", "phase.png"):
         assert (rep / f).is_file()
     assert "balanced accuracy by loop" in capsys.readouterr().out
@@ -95,7 +104,7 @@ def test_batch_cli(loops, tmp_path, capsys):
 
 
 def test_isdb_balanced_accuracy(data_dir):
-    from stictionbench.datasets import load_csv_dir
+    from stictionbench.realdata.datasets import load_csv_dir
 
     recs, _ = load_csv_dir(data_dir / "isdb", warn=False)
     entries = []

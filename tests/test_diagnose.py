@@ -1,15 +1,23 @@
-"""diagnose: the JSON contract, the verdicts on simulated loops, and bad input."""
+"""diagnose: the JSON contract, the verdicts on simulated loops, bad input, and the five
+stages (compare, locate, hypothesise, fit, validate) one by one with the prediction-error
+evidence and the noise models."""
 
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
+from scipy.signal import lfilter
 
 import stictionbench as sb
 from stictionbench.cli import main
 from stictionbench.diagnosis import VOCABULARY, NominalModel, diagnose
+from stictionbench.diagnosis.diagnose import compare, fit, hypothesise, locate, validate
+from stictionbench.diagnosis.evidence import select
+from stictionbench.diagnosis.noise import fit_noise_model, input_independence, ljung_box, lr_test
+from stictionbench.errors import InputError
 from stictionbench.io import write_recording
 
 MODEL = "process: {gain: 3.0, time_constant: 10.0, dead_time: 10.0}\n" \
@@ -129,3 +137,101 @@ def test_unsupportable_recordings(tmp_path, capsys):
     assert main(["diagnose", str(tmp_path / "nope.csv"), "--json",
                  str(tmp_path / "o.json")]) == 2
     assert not (tmp_path / "o.json").exists()
+
+@pytest.fixture(scope="module")
+def deadband_stages():
+    rec = _rec(seed=7, valve="deadband", valve__deadband=2.5)
+    cmp = compare(rec, NOM)
+    loc = locate(cmp)
+    names = hypothesise(cmp, loc, ("deadband", "stiction", "sensor_lag"))
+    fits, ham = fit(cmp, names)
+    return cmp, loc, names, fits, ham, validate(cmp, fits)
+
+
+def test_compare_splits_and_fits_nominal(deadband_stages):
+    cmp = deadband_stages[0]
+    assert cmp.prob.train.size > cmp.prob.val.size > 0
+    assert not set(cmp.prob.train) & set(cmp.prob.val)
+    assert cmp.burn == math.ceil(10.0 + 3 * 10.0)
+    assert cmp.nominal.name == "none" and cmp.nominal.resid.size == len(cmp.rec)
+
+
+def test_locate_finds_the_mismatch(deadband_stages):
+    loc = deadband_stages[1]
+    assert loc.ratio > 2.0 and loc.windows and loc.band
+
+
+def test_hypothesise_seeds_periods_and_refuses_unknown(deadband_stages):
+    cmp, loc, names = deadband_stages[:3]
+    assert names == ("deadband", "stiction", "sensor_lag")
+    assert cmp.ctx.resid_periods and all(p > 0 for p in cmp.ctx.resid_periods)
+    with pytest.raises(InputError, match="unknown hypothesis"):
+        hypothesise(cmp, loc, ("friction",))
+
+
+def test_fit_gives_every_candidate_and_the_valve_identification(deadband_stages):
+    fits, ham = deadband_stages[3:5]
+    assert set(fits) == {"none", "deadband", "stiction", "sensor_lag"}
+    assert fits["deadband"].nrmse_val < 0.7 * fits["none"].nrmse_val
+    assert fits["stiction"].intervals["J"] == ham.J_interval
+    assert ham.sticky
+
+
+def test_validate_names_deadband_by_the_slip_jump(deadband_stages):
+    fits, verdict = deadband_stages[3], deadband_stages[5]
+    assert verdict.pick == "deadband"
+    st = fits["stiction"].params
+    assert verdict.tests["slip_jump_zero"]["p_value"] >= 0.01 or st["J"] < 0.1 * st["S"]
+    assert verdict.tests["vs_nominal"]["p_value"] < 1e-6
+    assert {"whiteness", "independence_from_op"} <= set(verdict.tests)
+    assert verdict.ranking[0]["score"] == 0.0
+
+
+def test_json_adds_noise_model_and_tests():
+    d = diagnose(_rec(seed=8), NOM)
+    js = d.to_json()
+    assert d.missing_physics == "none"
+    assert {"noise_model", "tests", "missing_physics", "fit", "parameters"} <= set(js)
+    assert js["noise_model"]["family"] in ("AR", "ARI")
+    assert {"statistic", "p_value"} <= set(js["tests"]["whiteness"])
+    assert {"nominal", "improved", "innovation_variance"} <= set(js["fit"])
+
+
+def test_noise_model_recovers_ar_and_integration():
+    rng = np.random.default_rng(0)
+    e = rng.normal(size=4000)
+    x = lfilter([1.0], [1.0, -0.7], e)
+    h = fit_noise_model(x)
+    assert not h.integrated and h.order >= 1
+    assert h.ar[1] == pytest.approx(-0.7, abs=0.05)
+    assert ljung_box(h.whiten(x)[20:])["p_value"] > 0.01
+    walk = np.cumsum(e) + 0.1 * rng.normal(size=4000)
+    assert fit_noise_model(walk).integrated
+
+
+def test_lr_and_independence_statistics():
+    t = lr_test(2.0, 1.0, 100, 2)
+    assert t["statistic"] == pytest.approx(100 * math.log(2.0))
+    assert t["p_value"] < 1e-10
+    rng = np.random.default_rng(1)
+    u = rng.normal(size=2000)
+    assert input_independence(rng.normal(size=2000), u)["p_value"] > 0.001
+    assert input_independence(np.r_[0.0, u[:-1]] + 0.3 * rng.normal(size=2000), u)[
+        "p_value"] < 1e-6
+
+
+def test_select_rule_nested_and_thresholds():
+    rows = [{"physics": "none", "p_value": 1.0, "improvement": 0.0, "raw_score": 0.0,
+             "parameters": {}},
+            {"physics": "stiction", "p_value": 1e-9, "improvement": 0.3, "raw_score": -50.0,
+             "parameters": {"S": 2.0, "J": 1.0}},
+            {"physics": "deadband", "p_value": 1e-9, "improvement": 0.28, "raw_score": -49.0,
+             "parameters": {"deadband": 2.0}},
+            {"physics": "sensor_lag", "p_value": 0.02, "improvement": 0.5, "raw_score": -90.0,
+             "parameters": {"time_constant": 3.0}}]
+    assert select(rows, 1e-6, alpha=0.01, min_improvement=0.05) == "stiction"
+    assert select(rows, 0.2, alpha=0.01, min_improvement=0.05) == "deadband"
+    assert select(rows, 1e-6, alpha=0.05, min_improvement=0.05) == "sensor_lag"
+    assert select(rows, 1e-6, alpha=0.01, min_improvement=0.4) == "none"
+    rows[1]["parameters"]["J"] = 0.05
+    assert select(rows, 1e-6, alpha=0.01, min_improvement=0.05) == "deadband"

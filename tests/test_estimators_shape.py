@@ -316,3 +316,30 @@ def test_too_short_raises():
 def test_bad_bicoherence_params_raise(params):
     with pytest.raises(InputError):
         Bicoherence(**params).estimate(_rec(_ar1(0)))
+
+
+def test_xcum_stable_on_a_skewed_delayed_signal():
+    """A skewed input with a clean 7-sample delay: the lag survives both checks."""
+    import numpy as np
+
+    from stictionbench import Recording
+    from stictionbench.estimators import make
+
+    rng = np.random.default_rng(1)
+    s = rng.exponential(size=3000 + 7) - 1.0
+    t = np.arange(3000.0)
+    rec = Recording.from_arrays(t, PV=s[:-7], OP=s[7:])
+    res = make("xcum", max_delay=20).estimate(rec, "OP", "PV")
+    d = res.diagnostics
+    assert res.value == 7 and d["unstable"] is False and d["at_edge"] is False
+    assert d["wide_delay"] == 7 and d["tsvd_delay"] == 7 and res.decision is True
+
+
+def test_xcorr_reports_the_loops_backward_path():
+    import stictionbench as sb
+    from stictionbench.estimators import make
+
+    rec = sb.simulate("stiction", duration=2000.0, seed=0, sample_time=1.0)
+    d = make("xcorr").estimate(rec, "OP", "MV").diagnostics
+    assert d["backward_path_window"] == [-20.0, -10.0]   # θ = τ = 10 s at Ts = 1 s
+    assert d["on_backward_path"] is True and d["second_peak_lag"] is not None

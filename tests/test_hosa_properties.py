@@ -299,7 +299,8 @@ def test_xcum_estimator() -> None:
     rec = loop_recording(12)
     est = XCum()
     assert est.get_params() == {"max_delay": 30, "nsamp": None, "rank": None,
-                                "threshold": 0.5}
+                                "threshold": 0.5, "stability_check": True,
+                                "svd_rcond": 1e-8}
     res = est.estimate(rec)
     assert res.method == "xcum" and res.units == "samples"
     assert res.value == 12 and res.decision is True

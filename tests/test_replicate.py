@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import hashlib
+from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
 from stictionbench.cli import main
+from stictionbench.config import compose
+from stictionbench.paper import mechanism
 
-SMALL = ["robustness.seeds=3", "robustness.sample_times=[1.0]",
-         "robustness.sample_time_seeds=1", "robustness.stiction_scales=[1.0]",
-         "robustness.scale_seeds=2"]
+SWEEPS = Path(__file__).resolve().parents[1] / "reports" / "sweeps"
+SMALL = [f"sweeps_dir={SWEEPS}"]
 
 
 def _digest(root):
@@ -55,7 +58,11 @@ def test_table7_columns_and_stiction_separation(two_runs):
         assert abs(t7.loc[case, "xcorr_delay_samples"]) < 0.5
         assert t7.loc[case, "xcum_delay_samples"] == 0
     assert abs(t7.loc["stiction", "xcorr_delay_samples"]) > 5
-    assert t7.loc["stiction", "xcum_delay_samples"] != 0
+    # the cumulant "delay" of the stiction case is flagged, not reported as a delay
+    assert t7.loc["stiction", "xcum_at_edge"] or t7.loc["stiction", "xcum_unstable"]
+    # the paper's literal sign rule is reported beside ours
+    assert t7.loc["stiction", "sign_rule_paper"] == "stiction"
+    assert t7.loc["stiction", "sign_rule_xcorr"] == "no stiction"
 
 
 def test_remarks_are_measured(two_runs):
@@ -70,3 +77,48 @@ def test_remarks_are_measured(two_runs):
 def test_bad_override_exits_2(tmp_path, capsys):
     assert main(["replicate", f"out_dir={tmp_path}", "nonsense.key=1"]) == 2
     assert "unknown config key" in capsys.readouterr().err
+
+
+def test_partial_replicate_touches_only_its_case(two_runs, tmp_path):
+    a, _ = two_runs
+    out = tmp_path / "r"
+    import shutil
+
+    shutil.copytree(a, out)
+    before = _digest(out)
+    (out / "tables" / "table6.md").write_text("old")
+    assert main(["replicate", f"out_dir={out}", "cases=[stiction]", *SMALL]) == 0
+    after = _digest(out)
+    changed = {k for k in after if after[k] != before.get(k)}
+    assert "tables/table6.md" in changed or after["tables/table6.md"] == before[
+        "tables/table6.md"]
+    assert (out / "tables" / "table6.md").read_text() != "old"
+    untouched = [k for k in before if k.startswith(("tables/table3", "tables/table7",
+                                                    "REPLICATION", "figures/fig01"))]
+    assert untouched and all(after[k] == before[k] for k in untouched)
+
+
+def test_unknown_case_exits_2_and_writes_nothing(tmp_path, capsys):
+    assert main(["replicate", f"out_dir={tmp_path / 'x'}", "cases=[sticky]"]) == 2
+    assert "unknown case 'sticky'" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+
+
+def test_backward_path_follows_dead_time():
+    """The stiction-case xcorr lag and the slip→CO-reversal time both follow θ."""
+    cfg = compose([], config_name="experiment/paper")
+    d = mechanism.dead_time_study(cfg, dead_times=(10.0, 20.0), segments=(128,))
+    for row in d.itertuples():
+        assert row.dead_time_s <= row.slip_to_reversal_median_s <= row.dead_time_s + 5
+        assert -(row.dead_time_s + 10) <= row.xcorr_seg128_delay_s <= -row.dead_time_s
+
+
+def test_slip_and_reversal_detection():
+    t = np.arange(0, 100, 0.1)
+    op = np.abs((t % 40) - 20)  # triangle, reversals at 20, 40, 60, 80
+    mv = np.where((t % 40) < 25, 1.0, 0.0)  # jumps 5 s after the reversals at 20, 60, ...
+    slips, signs = mechanism.slip_times(t, mv)
+    assert np.allclose(slips, [24.9, 39.9, 64.9, 79.9], atol=0.11)
+    assert list(signs) == [-1, 1, -1, 1]
+    rev = mechanism.reversal_times(t, op)
+    assert np.allclose(rev[:2], [20.0, 40.0], atol=0.11)

@@ -10,12 +10,14 @@ from ..errors import InputError
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..io import read_recording, write_text
+    from ..validation import refuse_overwrite
     from .diagnose import diagnose
     from .model import load_model
     from .report import write_report
 
     if not args.json:
         raise InputError("diagnose needs --json OUT.json")
+    refuse_overwrite([args.json, args.report], [args.recording, args.model])
     model = load_model(args.model) if args.model else None
     rec = read_recording(args.recording)
     d = diagnose(rec, model)

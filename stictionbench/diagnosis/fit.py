@@ -34,6 +34,8 @@ class Fit:
     nrmse_val: float = math.nan
     n_eff_val: float = math.nan
     extra: dict[str, Any] = field(default_factory=dict)
+    #: the context (nominal dynamics, alignment) the fit was evaluated in
+    ctx: Context | None = field(default=None, repr=False)
 
 
 class Problem:
@@ -140,12 +142,22 @@ def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
         for q in _local_grid(h, best_p, ctx):
             cost(q)
         best_p, best_c = min(evals, key=lambda e: e[1])
-    c, beta, pred = prob.evaluate(h, best_p)
-    resid = prob.y - pred
-    fit = Fit(h.name, best_p, beta, c, h.describe(best_p, beta), h.n_params(), resid, pred,
-              evaluations=len(evals))
-    fit.extra = h.extra(best_p)
-    fit.intervals = profile_intervals(h, evals, c, n_effective(resid[prob.train]))
+    fit = fit_at(prob, h, best_p)
+    fit.evaluations = len(evals)
+    fit.intervals = profile_intervals(h, evals, fit.cost_train,
+                                      n_effective(fit.resid[prob.train]))
+    return fit
+
+
+def fit_at(prob: Problem, h: Hypothesis, p: np.ndarray) -> Fit:
+    """The :class:`Fit` of hypothesis ``h`` at parameters ``p`` (linear coefficients by
+    least squares), remembering the context it was evaluated in."""
+    p = np.asarray(p, float)
+    c, beta, pred = prob.evaluate(h, p)
+    fit = Fit(h.name, p, beta, c, h.describe(p, beta), h.n_params_at(p), prob.y - pred, pred,
+              evaluations=1)
+    fit.extra = h.extra(p)
+    fit.ctx = prob.ctx
     return fit
 
 

@@ -61,12 +61,22 @@ class Hypothesis:
     def bounds(self, ctx: Context) -> list[tuple[float, float]]:
         return []
 
+    def valve_output(self, ctx: Context, p: np.ndarray) -> np.ndarray:
+        """Valve position (flow) this hypothesis implies for the recorded OP; the one
+        place each hypothesis turns OP into what enters the process (OP itself when the
+        hypothesis is not about the valve)."""
+        return ctx.op
+
     def regressors(self, ctx: Context, p: np.ndarray) -> np.ndarray:
         """Columns whose linear combination (plus an offset) predicts PV."""
-        return fopdt_response(ctx.op, ctx.Ts, ctx.tau, ctx.theta)[:, None]
+        return fopdt_response(self.valve_output(ctx, p), ctx.Ts, ctx.tau, ctx.theta)[:, None]
 
     def n_params(self) -> int:
         return len(self.params) + self.extra_linear + 1
+
+    def n_params_at(self, p: np.ndarray) -> int:
+        """Free parameters of the fitted model at ``p`` (complexity penalty, LR df)."""
+        return self.n_params()
 
     def describe(self, p: np.ndarray, beta: np.ndarray) -> dict[str, Any]:
         return {k: float(v) for k, v in zip(self.params, p, strict=False)}
@@ -114,10 +124,9 @@ class Stiction(Hypothesis):
         span = ctx.op_span
         return [(0.01, max(0.1, 1.2 * span)), (0.0, max(0.1, 1.2 * span))]
 
-    def regressors(self, ctx, p):
-        mv = stiction_valve(ctx.op, float(p[0]), float(min(p[1], 1.5 * p[0])),
-                            self._delta(ctx, p[2]))
-        return fopdt_response(mv, ctx.Ts, ctx.tau, ctx.theta)[:, None]
+    def valve_output(self, ctx, p):
+        return stiction_valve(ctx.op, float(p[0]), float(min(p[1], 1.5 * p[0])),
+                              self._delta(ctx, p[2]))
 
     def n_params(self) -> int:
         return 4
@@ -141,8 +150,8 @@ class Deadband(Hypothesis):
     def bounds(self, ctx):
         return [(0.01, max(0.1, 1.2 * ctx.op_span))]
 
-    def regressors(self, ctx, p):
-        return fopdt_response(play(ctx.op, float(p[0])), ctx.Ts, ctx.tau, ctx.theta)[:, None]
+    def valve_output(self, ctx, p):
+        return play(ctx.op, float(p[0]))
 
 
 class SensorLag(Hypothesis):
@@ -194,9 +203,8 @@ class ValveCharacteristic(Hypothesis):
     def bounds(self, ctx):
         return [(1.05, 2000.0)]
 
-    def regressors(self, ctx, p):
-        flow = equal_percentage(ctx.op, float(p[0]))
-        return fopdt_response(flow, ctx.Ts, ctx.tau, ctx.theta)[:, None]
+    def valve_output(self, ctx, p):
+        return equal_percentage(ctx.op, float(p[0]))
 
 
 class Saturation(Hypothesis):
@@ -215,12 +223,14 @@ class Saturation(Hypothesis):
     def bounds(self, ctx):
         return [(float(ctx.op.min()), float(ctx.op.max()))] * 2
 
-    def regressors(self, ctx, p):
-        mv = np.clip(ctx.op, p[0], p[1])
-        return fopdt_response(mv, ctx.Ts, ctx.tau, ctx.theta)[:, None]
+    def valve_output(self, ctx, p):
+        return np.clip(ctx.op, p[0], p[1])
 
     def n_params(self) -> int:
         return 1 + 1  # at least one active limit; see describe() for which
+
+    def n_params_at(self, p: np.ndarray) -> int:
+        return 1 + max(1, int(np.isfinite(p[0])) + int(np.isfinite(p[1])))
 
     def describe(self, p, beta):
         out: dict[str, Any] = {}
@@ -245,14 +255,19 @@ class OscillatoryDisturbance(Hypothesis):
         hp = 1.0 / ctx.f_hp if ctx.f_hp else np.inf
         return max(5 * ctx.Ts, min(T / 8, hp / 2))
 
+    def _min_period(self, ctx):
+        # the comparison band ends near 5 process corner frequencies (1/(2πτ)): a faster
+        # "oscillation" would be fitted where PV holds measurement noise only
+        return min(max(4 * ctx.Ts, ctx.tau), 0.5 * self._max_period(ctx))
+
     def grid(self, ctx):
-        top = self._max_period(ctx)
-        base = list(np.geomspace(4 * ctx.Ts, max(8 * ctx.Ts, top), 40))
-        extra = [p for p in ctx.resid_periods if 4 * ctx.Ts <= p <= top]
+        top, low = self._max_period(ctx), self._min_period(ctx)
+        base = list(np.geomspace(low, max(2 * low, top), 40))
+        extra = [p for p in ctx.resid_periods if low <= p <= top]
         return [np.array([p]) for p in sorted(set(base + extra)) if p <= top]
 
     def bounds(self, ctx):
-        return [(2.5 * ctx.Ts, self._max_period(ctx))]
+        return [(self._min_period(ctx), self._max_period(ctx))]
 
     def regressors(self, ctx, p):
         g = fopdt_response(ctx.op, ctx.Ts, ctx.tau, ctx.theta)

@@ -11,7 +11,6 @@ from ..io import write_text
 from ..reports.figures import new_figure, save_png
 from .diagnose import Diagnosis
 from .hypotheses import HYPOTHESES, Context
-from .openloop import stiction_valve
 
 PLAIN = {
     "none": "the nominal model explains the recording; nothing is missing",
@@ -93,22 +92,12 @@ def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
 
 
 def estimated_mv(d: Diagnosis) -> np.ndarray:
-    """Valve position implied by the chosen valve hypothesis (OP for non-valve ones)."""
+    """Valve position implied by the chosen hypothesis (OP for non-valve ones)."""
     rec = d.rec
     assert rec is not None
-    op = np.asarray(rec.OP, float)
-    ft = d.fits[d.missing_physics]
-    if d.missing_physics == "stiction":
-        h = HYPOTHESES["stiction"]
-        ctx = Context(rec.t, op, rec.PV, rec.Ts, d.model.time_constant, d.model.dead_time)
-        return stiction_valve(op, float(ft.p[0]), float(ft.p[1]), h._delta(ctx, ft.p[2]))
-    if d.missing_physics == "deadband":
-        from .openloop import play
-
-        return play(op, float(ft.p[0]))
-    if d.missing_physics == "saturation":
-        return np.clip(op, ft.p[0], ft.p[1])
-    return op
+    ctx = Context(rec.t, np.asarray(rec.OP, float), rec.PV, rec.Ts, d.model.time_constant,
+                  d.model.dead_time)
+    return HYPOTHESES[d.missing_physics].valve_output(ctx, d.fits[d.missing_physics].p)
 
 
 def summary_markdown(d: Diagnosis) -> str:

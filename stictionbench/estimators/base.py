@@ -8,7 +8,6 @@ and the names of the signals to use and returns an :class:`EstimateResult`.
 from __future__ import annotations
 
 import inspect
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -16,8 +15,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import InputError
 from ..recording import Recording
+from ..validation import Constraint, jsonable, validate_params
 
 
 @dataclass(frozen=True)
@@ -59,10 +58,10 @@ class EstimateResult:
                 if curves:
                     diag[k] = v.tolist()
                 continue
-            diag[k] = _jsonable(v)
+            diag[k] = jsonable(v)
         return {
             "method": self.method,
-            "value": _jsonable(self.value),
+            "value": jsonable(self.value),
             "units": self.units,
             "decision": self.decision,
             "meaning": self.meaning,
@@ -76,23 +75,8 @@ class EstimateResult:
         for k, v in self.diagnostics.items():
             scalar = (int, float, bool, str, np.integer, np.floating, np.bool_)
             if v is None or isinstance(v, scalar):
-                out[p + k] = _jsonable(v)
+                out[p + k] = jsonable(v)
         return out
-
-
-def _jsonable(v: Any) -> Any:
-    if isinstance(v, (np.bool_,)):
-        return bool(v)
-    if isinstance(v, np.integer):
-        return int(v)
-    if isinstance(v, (float, np.floating)):
-        f = float(v)
-        return f if math.isfinite(f) else None
-    if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
-    if isinstance(v, Mapping):
-        return {str(k): _jsonable(x) for k, x in v.items()}
-    return v
 
 
 class Estimator:
@@ -104,6 +88,10 @@ class Estimator:
     """
 
     name: ClassVar[str] = ""
+    #: declared parameters, scikit-learn style: name -> accepted forms
+    #: (:class:`~stictionbench.validation.Interval`, ``Options``, ``TypeOf`` or ``None``);
+    #: :meth:`estimate` checks them before any work. Undeclared names are not checked.
+    _parameter_constraints: ClassVar[dict[str, list[Constraint]]] = {}
     #: signals used when the caller does not name them
     default_x: ClassVar[str] = "OP"
     default_y: ClassVar[str | None] = "MV"
@@ -118,6 +106,17 @@ class Estimator:
     def get_params(self) -> dict[str, Any]:
         """Current parameters as a dict (as in scikit-learn)."""
         return {k: getattr(self, k) for k in self.param_names()}
+
+    def check_params(self) -> None:
+        """Check the current parameters against ``_parameter_constraints``.
+
+        Raises
+        ------
+        InputError
+            One line naming the parameter, what it accepts and what it got.
+        """
+        validate_params(self.name or type(self).__name__, self._parameter_constraints,
+                        self.get_params())
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
@@ -135,6 +134,7 @@ class Estimator:
             Signal names (``"OP"``, ``"MV"``, ``"PV"``, ``"SP"``); defaults are the
             estimator's ``default_x`` / ``default_y``.
         """
+        self.check_params()
         xs = rec.signal(x or self.default_x)
         yname = y or self.default_y
         ys = rec.signal(yname) if yname else None
@@ -145,33 +145,3 @@ class Estimator:
         self, x: np.ndarray, y: np.ndarray | None, rec: Recording
     ) -> EstimateResult:  # pragma: no cover - abstract
         raise NotImplementedError
-
-
-def check_signal(x: np.ndarray, name: str, *, min_len: int = 1) -> np.ndarray:
-    """Check a 1-D float signal: finite, long enough, not constant.
-
-    Raises
-    ------
-    InputError
-        With a one-line message naming the signal.
-    """
-    x = np.asarray(x, dtype=float)
-    if x.ndim != 1:
-        raise InputError(f"{name}: expected a 1-D signal, got shape {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise InputError(f"{name}: contains NaN or infinite values")
-    if x.size < min_len:
-        raise InputError(f"{name}: {x.size} samples, at least {min_len} needed")
-    if np.ptp(x) == 0.0:
-        raise InputError(f"{name}: constant signal (spectra and coherence are undefined)")
-    return x
-
-
-def check_pair(name: str, x: np.ndarray, y: np.ndarray | None, *,
-               min_len: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """Check the two signals of a delay estimator (``x`` = OP, ``y`` = MV) with
-    :func:`check_signal`; a missing ``y`` is an InputError naming the estimator."""
-    if y is None:
-        raise InputError(f"{name}: needs two signals (x = OP, y = MV)")
-    return (check_signal(x, f"{name} x", min_len=min_len),
-            check_signal(y, f"{name} y", min_len=min_len))

@@ -30,7 +30,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from numbers import Integral, Real
+from typing import ClassVar, Literal
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -39,7 +40,8 @@ from scipy import stats
 
 from ..errors import InputError
 from ..recording import Recording
-from .base import EstimateResult, Estimator, check_signal
+from ..validation import Band, Constraint, Interval, Options, TypeOf, check_signal
+from .base import EstimateResult, Estimator
 from .oscillation import acf_oscillation, bandpass
 
 #: fewest segments the test accepts (the χ² threshold needs a few averages)
@@ -430,6 +432,20 @@ class Bicoherence(Estimator):
     name = "bicoherence"
     default_x = "PV"
     default_y = None
+
+    _parameter_constraints: ClassVar[dict[str, list[Constraint]]] = {
+        "nfft": [Interval(Integral, 8, None)],
+        "overlap": [Interval(Real, 0, 99)],
+        "alpha": [Interval(Real, 0, 1, closed="neither")],
+        "ngi_threshold": [Interval(Real, None, None)],
+        "nli_threshold": [Interval(Real, None, None)],
+        "prefilter": [Band(0, 0.5), Options(("auto",)), None],
+        "detrend": [TypeOf(bool)],
+        "max_samples": [Interval(Integral, 8, None), None],
+        "window": [Options(("hann", "boxcar"))],
+        "ngi_average": [Options(("domain", "significant"))],
+        "decimate": [Interval(Integral, 1, None)],
+    }
 
     def __init__(
         self,

@@ -15,12 +15,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from numbers import Integral, Real
+from typing import ClassVar
 
 import numpy as np
 
 from ..errors import InputError
 from ..recording import Recording
-from .base import EstimateResult, Estimator, check_signal
+from ..validation import Band, Constraint, Interval, check_signal
+from .base import EstimateResult, Estimator
 from .oscillation import acf_oscillation, bandpass, bandpass_gain, dominant_frequency
 
 #: fewest samples accepted
@@ -347,6 +350,15 @@ class Ellipse(Estimator):
     name = "ellipse"
     default_x = "OP"
     default_y = "PV"
+
+    _parameter_constraints: ClassVar[dict[str, list[Constraint]]] = {
+        "f0": [Interval(Real, 0, 0.5, closed="neither"), None],
+        "band": [Band(0, None)],
+        "order": [Interval(Integral, 1, 10)],
+        "min_stiction": [Interval(Real, 0, None)],
+        "max_residual": [Interval(Real, 0, None, closed="neither")],
+        "min_axis_ratio": [Interval(Real, 0, 1)],
+    }
 
     def __init__(
         self,

@@ -14,13 +14,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from numbers import Integral, Real
+from typing import ClassVar
 
 import numpy as np
 from scipy import signal as sps
 
 from ..errors import InputError
 from ..recording import Recording
-from .base import EstimateResult, Estimator, check_signal
+from ..validation import Band, Constraint, Interval, TypeOf, check_signal
+from .base import EstimateResult, Estimator
 
 #: fewest samples the ACF method accepts
 MIN_SAMPLES = 32
@@ -369,6 +372,16 @@ class Oscillation(Estimator):
     name = "oscillation"
     default_x = "PV"
     default_y = None
+
+    _parameter_constraints: ClassVar[dict[str, list[Constraint]]] = {
+        "band": [Band(0, 0.5), None],
+        "detrend": [TypeOf(bool)],
+        "max_lag": [Interval(Integral, 2, None), None],
+        "max_crossings": [Interval(Integral, 2, None)],
+        "min_crossings": [Interval(Integral, 2, None)],
+        "r_threshold": [Interval(Real, 0, None)],
+        "min_period": [Interval(Real, 2, None)],
+    }
 
     def __init__(
         self,

@@ -10,6 +10,7 @@ where ``MyEstimator`` subclasses :class:`stictionbench.estimators.base.Estimator
 
 from __future__ import annotations
 
+import functools
 from importlib import import_module
 from importlib.metadata import entry_points
 from typing import Any
@@ -26,20 +27,40 @@ BUILTIN = {
     "bicoherence": "stictionbench.estimators.bicoherence:Bicoherence",
     "oscillation": "stictionbench.estimators.oscillation:Oscillation",
     "ellipse": "stictionbench.estimators.ellipse:Ellipse",
+    "horch": "stictionbench.estimators.horch:Horch",
+    "he": "stictionbench.estimators.he:He",
+    "area_ratio": "stictionbench.estimators.area_ratio:AreaRatio",
+    "kano": "stictionbench.estimators.kano:Kano",
+    "yamashita": "stictionbench.estimators.yamashita:Yamashita",
 }
 
 
+@functools.cache
 def _load(spec: str) -> type[Estimator]:
     module, _, attr = spec.partition(":")
     return getattr(import_module(module), attr)
 
 
 def available() -> dict[str, str]:
-    """All registered estimators: name -> ``"module:Class"``; entry points included."""
+    """All registered estimators: name -> ``"module:Class"``; entry points included.
+
+    The entry-point scan reads every installed distribution's metadata (milliseconds),
+    so it is done once per process; :func:`refresh` forgets it after an install.
+    """
+    return dict(_scan())
+
+
+@functools.lru_cache(maxsize=1)
+def _scan() -> tuple[tuple[str, str], ...]:
     out = dict(BUILTIN)
     for ep in entry_points(group=GROUP):
         out.setdefault(ep.name, ep.value)
-    return out
+    return tuple(out.items())
+
+
+def refresh() -> None:
+    """Forget the cached entry points (after installing a plug-in in this process)."""
+    _scan.cache_clear()
 
 
 def get_class(name: str) -> type[Estimator]:
@@ -60,7 +81,8 @@ def get_class(name: str) -> type[Estimator]:
 
 
 def make(name: str, **params: Any) -> Estimator:
-    """Instantiate estimator ``name`` with ``params``, checking the parameter names."""
+    """Instantiate estimator ``name`` with ``params``, checking their names and the
+    class's declared constraints (``_parameter_constraints``)."""
     cls = get_class(name)
     allowed = cls.param_names()
     unknown = sorted(set(params) - set(allowed))
@@ -69,4 +91,6 @@ def make(name: str, **params: Any) -> Estimator:
             f"estimator {name!r}: unknown parameter(s) {', '.join(unknown)}; "
             f"known: {', '.join(allowed) or 'none'}"
         )
-    return cls(**params)
+    est = cls(**params)
+    est.check_params()
+    return est

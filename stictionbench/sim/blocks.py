@@ -15,20 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
-
-
-def number(key: str, value: object, *, low: float | None = None, strict: bool = False) -> float:
-    """A finite number from a config value, ``≥ low`` (``> low`` when ``strict``);
-    InputError naming ``key`` otherwise."""
-    try:
-        v = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise InputError(f"{key}: not a number ({value!r})") from None
-    if not math.isfinite(v):
-        raise InputError(f"{key}: must be finite, got {value!r}")
-    if low is not None and (v < low or (strict and v == low)):
-        raise InputError(f"{key}: must be {'>' if strict else '≥'} {low:g}, got {value!r}")
-    return v
+from ..validation import number
 
 
 @dataclass(frozen=True)

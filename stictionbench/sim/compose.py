@@ -12,12 +12,13 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from hydra.utils import instantiate
+from hydra.utils import get_class, instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from ..config import compose
 from ..errors import InputError
 from ..recording import Recording
+from ..validation import number
 from .blocks import FOPDT, Disturbance, PIController, Sensor, SetPoint
 from .kernel import run_loop
 from .valves import Valve, init_state
@@ -92,14 +93,22 @@ def simulate(
 
 
 def _number(cfg: DictConfig, key: str, *, positive: bool = True) -> float:
-    value = OmegaConf.select(cfg, key)
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{key}: not a number ({value!r})") from None
-    if not math.isfinite(v) or (positive and v <= 0):
-        raise InputError(f"{key}: must be a positive number, got {value!r}")
-    return v
+    return number(key, OmegaConf.select(cfg, key), low=0.0 if positive else None,
+                  strict=positive)
+
+
+def _instantiate_flat(node: Any) -> Any:
+    """``hydra.utils.instantiate`` for a block config: a flat ``_target_`` mapping is
+    built directly from its plain-Python parameters (a block is a frozen dataclass of
+    numbers and lists), skipping the OmegaConf re-wrapping that made building the six
+    blocks cost more than simulating them; nested ``_target_`` configs go to Hydra."""
+    params = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
+    if not isinstance(params, dict) or "_target_" not in params or any(
+            isinstance(v, dict) and "_target_" in v for v in params.values()):
+        return instantiate(node)
+    params = dict(params)
+    cls = get_class(params.pop("_target_"))
+    return cls(**params)
 
 
 def build(cfg: DictConfig) -> dict[str, Any]:
@@ -111,7 +120,7 @@ def build(cfg: DictConfig) -> dict[str, Any]:
     }
     for name, cls in expected.items():
         try:
-            obj = instantiate(cfg[name])
+            obj = _instantiate_flat(cfg[name])
         except InputError:
             raise
         except Exception as exc:  # instantiate wraps TypeErrors for unknown parameters

@@ -20,6 +20,7 @@ Govinda Kumar & Manoharan (seed paper), eqs. 1–2, Tables I–II.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import ClassVar
@@ -28,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import InputError
-from .blocks import number
+from ..validation import number
 
 # valve kind codes used by the kernel
 LINEAR, PHYSICAL, CHOUDHURY, KANO, HE, BACKLASH = 0, 1, 2, 3, 4, 5
@@ -155,6 +156,29 @@ class PhysicalValve(Valve):
     def travel_span(self) -> float:
         """Stem travel (m) between OP = 0 % and 100 % at friction-free equilibrium."""
         return self.area * (self.pressure_high - self.pressure_low) / self.spring
+
+    def friction_for(self, S: float, J: float) -> tuple[float, float]:
+        """Static and Coulomb friction ``(Fs, Fc)`` (N) giving quasi-static ``(S, J)``.
+
+        The inverse of :meth:`equivalent_two_parameter`: ``Fs = k·span·(S + J)/200``,
+        ``Fc = k·span·(S − J)/200`` with ``S``, ``J`` in % of travel span
+        (Choudhury et al. 2005, section 4). This is the one place where the
+        (S, J) ↔ (Fs, Fc) arithmetic lives.
+
+        Examples
+        --------
+        >>> v = PhysicalValve()
+        >>> Fs, Fc = v.friction_for(*v.equivalent_two_parameter())
+        >>> round(Fs, 6), round(Fc, 6)
+        (1000.0, 400.0)
+        """
+        per_percent = self.spring * self.travel_span / 100.0
+        return 0.5 * (S + J) * per_percent, 0.5 * (S - J) * per_percent
+
+    def with_two_parameter(self, S: float, J: float) -> PhysicalValve:
+        """A copy of this valve whose friction gives quasi-static ``(S, J)`` (% of span)."""
+        Fs, Fc = self.friction_for(S, J)
+        return dataclasses.replace(self, Fs=Fs, Fc=Fc)
 
     def equivalent_two_parameter(self) -> tuple[float, float]:
         """Quasi-static equivalent ``(S, J)`` in % of travel span.

@@ -8,7 +8,8 @@ writes ``results.csv``/``.parquet``, a summary and figures (:mod:`.aggregate`,
 :mod:`.figures`).
 """
 
-from .aggregate import aggregate, roc_curve, summary_table
+from ..rates import roc_curve
+from .aggregate import aggregate, summary_table
 from .launch import run_sweep
 from .plan import Plan, make_plan
 from .runner import execute

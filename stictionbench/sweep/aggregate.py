@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..io import atomic_path, write_text
+from ..io import atomic_directory, atomic_path, write_text
+from ..rates import auc_interval, decided, roc_curve, wilson
 from ..reports.tables import write_table
 from .plan import KNOBS, Plan
 from .runner import variants
@@ -85,38 +86,6 @@ def write_results(df: pd.DataFrame, out_dir: Path) -> tuple[Path, Path]:
     return csv, parquet
 
 
-# ------------------------------------------------------------------------- scores
-def _decided(s: pd.Series) -> np.ndarray:
-    """Decision column as booleans: True only where the estimator said True."""
-    return s.map(lambda v: v is True or v == 1 or v == "True").to_numpy(dtype=bool)
-
-
-def roc_curve(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """ROC of a continuous score (larger = stiction) against boolean labels.
-
-    Missing scores (NaN) rank below every finite score. Returns ``(fpr, tpr, auc)``,
-    the curve through every distinct threshold, from (0, 0) to (1, 1); the AUC is the
-    trapezoidal area (ties count one half, as the Mann–Whitney statistic). NaN AUC when
-    one of the classes is empty.
-    """
-    s = np.asarray(scores, dtype=float)
-    y = np.asarray(labels, dtype=bool)
-    finite = np.isfinite(s)
-    low = (np.min(s[finite]) - 1.0) if finite.any() else 0.0
-    s = np.where(finite, s, low)
-    order = np.argsort(-s, kind="mergesort")
-    s, y = s[order], y[order]
-    npos, nneg = int(y.sum()), int((~y).sum())
-    if npos == 0 or nneg == 0:
-        return np.array([0.0, 1.0]), np.array([0.0, 1.0]), float("nan")
-    last = np.r_[np.nonzero(np.diff(s))[0], y.size - 1]
-    tps = np.cumsum(y)[last]
-    fps = (last + 1) - tps
-    tpr = np.r_[0.0, tps / npos]
-    fpr = np.r_[0.0, fps / nneg]
-    return fpr, tpr, float(np.trapezoid(tpr, fpr))
-
-
 def summary_table(df: pd.DataFrame, prefixes: list[str]) -> pd.DataFrame:
     """Per estimator variant: detection rate on stiction runs, false alarms, AUC."""
     ok = df[df["status"] == "ok"] if "status" in df else df
@@ -128,19 +97,27 @@ def summary_table(df: pd.DataFrame, prefixes: list[str]) -> pd.DataFrame:
     for p in prefixes:
         if f"{p}_decision" not in ok:
             continue
-        dec = _decided(ok[f"{p}_decision"])
+        dec = decided(ok[f"{p}_decision"])
         err = ok[f"{p}_error"].notna().to_numpy() if f"{p}_error" in ok else np.zeros(len(ok), bool)
         vals = pd.to_numeric(ok[f"{p}_value"], errors="coerce").to_numpy(dtype=float)
-        _, _, auc = roc_curve(vals, label)
+        auc, auc_lo, auc_hi = auc_interval(vals, label)
         _, _, auc_valid = roc_curve(vals[~err], label[~err])
+        det_lo, det_hi = wilson(int(dec[label].sum()), int(label.sum()))
+        fa_lo, fa_hi = wilson(int(dec[~label].sum()), int((~label).sum()))
         row = {
             "estimator": p,
             "runs": len(ok),
             "errors": int(err.sum()),
             "detection_rate": float(dec[label].mean()) if label.any() else float("nan"),
+            "detection_low": det_lo,
+            "detection_high": det_hi,
             "false_alarm_rate": float(dec[~label].mean()) if (~label).any() else float("nan"),
+            "false_alarm_low": fa_lo,
+            "false_alarm_high": fa_hi,
             "accuracy": float((dec == label).mean()),
             "auc": auc,
+            "auc_low": auc_lo,
+            "auc_high": auc_hi,
             "auc_no_errors": auc_valid,
         }
         for v in valves:
@@ -158,9 +135,14 @@ def aggregate(plan: Plan, *, figures: bool = True) -> pd.DataFrame:
     Nothing is written when no run of the plan has finished (e.g. ``runs/`` is absent).
     """
     df = collect(plan)
-    out = plan.out_dir
     if df.empty:  # nothing finished: leave earlier results alone
         return df
+    with atomic_directory(plan.out_dir) as out:  # all files appear together, or none
+        _write_aggregate(plan, df, out, figures=figures)
+    return df
+
+
+def _write_aggregate(plan: Plan, df: pd.DataFrame, out: Path, *, figures: bool) -> None:
     write_results(df, out)
     pre = [p for p in prefixes(plan) if f"{p}_decision" in df.columns]
     table = summary_table(df, pre)
@@ -180,7 +162,9 @@ def aggregate(plan: Plan, *, figures: bool = True) -> pd.DataFrame:
         "decision is True, `false_alarm_rate` the same share among stiction-free runs, "
         "`auc` the area under the ROC of the estimator's `value` (larger = stiction; "
         "below 0.5 means the value points the other way; an estimator error ranks "
-        "lowest, `auc_no_errors` leaves those runs out).",
+        "lowest, `auc_no_errors` leaves those runs out). `*_low`/`*_high` are 95 % "
+        "intervals: Wilson score for rates, percentile bootstrap (1000 resamples, "
+        "seed 0) for the AUC.",
         "",
         f"Per-run wall time: median {wall.median() * 1e3:.0f} ms, total "
         f"{wall.sum():.1f} s of worker time." if wall.notna().any() else "",
@@ -198,4 +182,3 @@ def aggregate(plan: Plan, *, figures: bool = True) -> pd.DataFrame:
         *(f"![{m}]({m})" for m in made),
     ]
     write_table(table, out / "summary", title=f"Sweep `{plan.name}`", note="\n".join(lines))
-    return df

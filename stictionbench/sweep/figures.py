@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..rates import decided, roc_curve
 from ..reports.figures import new_figure, save_png
-from .aggregate import _decided, roc_curve
 
 
 def _levels(df: pd.DataFrame, col: str) -> list:
@@ -31,7 +31,7 @@ def detection_heatmaps(df: pd.DataFrame, prefixes: list[str], path: Path) -> Pat
                            squeeze=False, constrained_layout=True)
     image = None
     for i, p in enumerate(prefixes):
-        dec = _decided(ok[f"{p}_decision"])
+        dec = decided(ok[f"{p}_decision"])
         for j, k in enumerate(kc):
             ax = axes[i][j]
             grid = np.full((len(S), len(noise)), np.nan)
@@ -84,7 +84,7 @@ def roc_figure(df: pd.DataFrame, prefixes: list[str], path: Path) -> Path:
         vals = pd.to_numeric(ok[f"{p}_value"], errors="coerce").to_numpy(dtype=float)
         fpr, tpr, auc = roc_curve(vals, label)
         (line,) = ax.plot(fpr, tpr, lw=1.3, label=f"{p} (AUC {auc:.2f})")
-        dec = _decided(ok[f"{p}_decision"])
+        dec = decided(ok[f"{p}_decision"])
         if label.any() and (~label).any():
             ax.plot(dec[~label].mean(), dec[label].mean(), "o", color=line.get_color(), ms=5)
     ax.set_xlim(0, 1)

@@ -32,9 +32,10 @@ SCHEMA = 1
 APP = "sweep_app"
 #: keys of ``run`` and their types (the id hashes the normalised values)
 KNOBS: dict[str, type] = {
-    "valve": str, "S": float, "J_ratio": float, "kc": float, "ti": float, "noise": float,
-    "dist_amp": float, "dist_period": float, "load": float, "setpoint": str,
+    "case": str, "valve": str, "S": float, "J_ratio": float, "kc": float, "ti": float,
+    "noise": float, "dist_amp": float, "dist_period": float, "load": float, "setpoint": str,
     "duration": float, "sample_time": float, "seed": int, "sim": list,
+    "noise_op": float, "noise_mv": float,
 }
 #: knobs the command consumes (never sent to the runs)
 COMMAND_KEYS = ("n_jobs", "batch_size", "limit", "retry_errors", "aggregate_only", "progress")
@@ -177,8 +178,10 @@ def normalise_run(run: dict[str, Any]) -> dict[str, Any]:
     if unknown:
         raise InputError(f"unknown config key 'run.{unknown[0]}'")
     out = {k: _typed(k, run.get(k)) for k in KNOBS}
-    for key, group in (("valve", "valve"), ("setpoint", "setpoint")):
+    for key, group in (("valve", "valve"), ("setpoint", "setpoint"), ("case", "case")):
         options = _options(group)
+        if key == "case" and out[key] is None:
+            continue  # no paper case: the valve/controller/disturbance knobs build the loop
         if out[key] not in options:
             raise InputError(f"run.{key}: unknown {group} {out[key]!r}; available: "
                              f"{', '.join(options)}")
@@ -190,9 +193,21 @@ def _options(group: str) -> tuple[str, ...]:
     return tuple(group_options(group))
 
 
+#: knobs and estimator options added after the first release: left out of the hash at
+#: their default values, so the runs of an existing sweep keep their ids (and files)
+LATER_DEFAULTS = {"run": ("case", "noise_op", "noise_mv"),
+                  "estimators": ("only", "in_seconds")}
+
+
 def run_id(spec: dict[str, Any]) -> str:
     """Stable id of a run: hash of the schema version and the resolved spec."""
-    blob = json.dumps({"schema": SCHEMA, **spec}, sort_keys=True, separators=(",", ":"),
+    hashed = {}
+    for node, value in spec.items():
+        later = LATER_DEFAULTS.get(node, {})
+        if isinstance(value, dict):
+            value = {k: v for k, v in value.items() if not (k in later and not v)}
+        hashed[node] = value
+    blob = json.dumps({"schema": SCHEMA, **hashed}, sort_keys=True, separators=(",", ":"),
                       default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
@@ -301,25 +316,26 @@ def _check_estimators(runs: list[Run]) -> None:
         if key in done:
             continue
         done.add(key)
-        variants(est)
-        for name, params in (est.get("params") or {}).items():
+        by_prefix = {prefix: name for prefix, name, _x, _y in variants(est)}
+        for key, params in (est.get("params") or {}).items():
             if not isinstance(params, dict):
-                raise InputError(f"estimators.params.{name}: expected a mapping of parameters")
-            make(name, **params)
+                raise InputError(f"estimators.params.{key}: expected a mapping of parameters")
+            make(by_prefix.get(key, key), **params)
 
 
 def batch_size(cfg: DictConfig, pending: int, workers: int) -> int:
-    """Runs per Hydra job: ``cfg.batch_size``, or ``auto``: 2 jobs per worker, ≤ 50 runs.
+    """Runs per Hydra job: ``cfg.batch_size``, or ``auto``: one job per worker, ≤ 50 runs.
 
-    A Hydra job costs about 0.2 s besides its runs (the config is composed once in the
-    launching process to validate it and once in the job, and the job's logging and
-    output directory are set up), three runs' worth at 2000 s and 1 s sampling: few
-    large batches keep that small. A killed job loses only its unfinished runs, since
+    A Hydra job costs about 0.35 s besides its runs (the launcher composes its config in
+    the launching process, one job after the other, and the job sets up its logging and
+    output directory), eight runs' worth at 2000 s and 1 s sampling: few large batches
+    keep that serial cost small. Runs of one sweep take about the same time, so one
+    batch per worker balances well. A killed job loses only its unfinished runs, since
     every run writes its own file.
     """
     value = cfg.get("batch_size", "auto")
     if value in (None, "auto"):
-        return max(1, min(MAX_BATCH, math.ceil(pending / (2 * max(1, workers)))))
+        return max(1, min(MAX_BATCH, math.ceil(pending / max(1, workers))))
     try:
         n = int(value)
     except (TypeError, ValueError):

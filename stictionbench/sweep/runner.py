@@ -15,7 +15,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import json
-import math
 import os
 import socket
 import time
@@ -25,6 +24,8 @@ from typing import Any
 from omegaconf import DictConfig
 
 from ..io import write_text
+from ..sim.valves import PhysicalValve
+from ..validation import jsonable
 
 #: valves of conf/valve/ whose stiction band the knob S sets
 TWO_PARAMETER = ("choudhury", "kano", "he")
@@ -34,12 +35,6 @@ WORKER = f"{socket.gethostname()}:{os.getpid()}"
 def _one_line(exc: BaseException) -> str:
     msg = " ".join(str(exc).split()) or type(exc).__name__
     return f"{type(exc).__name__}: {msg}"[:300]
-
-
-def _clean(v: Any) -> Any:
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    return v
 
 
 @contextlib.contextmanager
@@ -73,6 +68,8 @@ def sim_config(run: dict[str, Any]):
 
     from ..sim.compose import config_for
 
+    if run.get("case"):
+        return _case_config(run)
     valve = run["valve"]
     overrides = [f"valve={valve}", "disturbance=sinusoidal", "sensor=ideal",
                  f"setpoint={run['setpoint']}", *run["sim"]]
@@ -94,14 +91,36 @@ def sim_config(run: dict[str, Any]):
         cfg.disturbance.load_std = run["load"]
         if valve == "physical":
             v = cfg.valve
-            per_percent = float(v.area) * (float(v.pressure_high) - float(v.pressure_low)) / 100
-            cfg.valve.Fs = (S + J) / 2 * per_percent
-            cfg.valve.Fc = (S - J) / 2 * per_percent
+            phys = PhysicalValve(mass=float(v.mass), spring=float(v.spring),
+                                 area=float(v.area), pressure_low=float(v.pressure_low),
+                                 pressure_high=float(v.pressure_high))
+            cfg.valve.Fs, cfg.valve.Fc = phys.friction_for(S, J)
         elif valve in TWO_PARAMETER:
             cfg.valve.S = S
             cfg.valve.J = J
         elif valve == "deadband":
             cfg.valve.deadband = S
+    return cfg
+
+
+def _case_config(run: dict[str, Any]):
+    """A paper case of ``conf/case/`` as it is, with the run's noise, load and sampling.
+
+    The valve, controller and disturbance knobs are not used: the case sets them.
+    """
+    from omegaconf import open_dict
+
+    from ..sim.compose import config_for
+
+    with _outside_hydra_job():
+        cfg = config_for(run["case"], [f"setpoint={run['setpoint']}", *run["sim"]])
+    with open_dict(cfg):
+        cfg.description = f"stictionbench sweep run, paper case {run['case']}"
+        cfg.duration = run["duration"]
+        cfg.sample_time = run["sample_time"]
+        cfg.seed = run["seed"]
+        cfg.sensor.noise_std = run["noise"]
+        cfg.disturbance.load_std = run["load"]
     return cfg
 
 
@@ -114,7 +133,10 @@ def truth(run: dict[str, Any], cfg, meta: dict[str, Any] | None) -> dict[str, An
     """
     valve = run["valve"]
     S = J = 0.0
-    if meta is not None and "true_S" in meta:
+    if run.get("case") and cfg is not None:
+        valve = str(cfg.valve._target_).rsplit(".", 1)[-1]
+        S, J = _case_truth(cfg.valve)
+    elif meta is not None and "true_S" in meta:
         S, J = float(meta["true_S"]), float(meta["true_J"])
     elif valve in TWO_PARAMETER or valve == "physical":
         S, J = run["S"], run["J_ratio"] * run["S"]
@@ -122,10 +144,22 @@ def truth(run: dict[str, Any], cfg, meta: dict[str, Any] | None) -> dict[str, An
         S = run["S"]
     out: dict[str, Any] = {"true_S": S, "true_J": J,
                            "label_stiction": bool(S > 1e-9 and J > 1e-9)}
-    if valve.startswith("physical") and cfg is not None:
+    if valve.lower().startswith("physical") and cfg is not None:
         out["valve_Fs"] = float(cfg.valve.Fs)
         out["valve_Fc"] = float(cfg.valve.Fc)
     return out
+
+
+def _case_truth(valve_cfg) -> tuple[float, float]:
+    """S and J (% of span) of a case's valve: the physical valve's equivalent two
+    parameters, a two-parameter model's own, a deadband's width; 0 for a linear valve."""
+    params = {k: v for k, v in valve_cfg.items() if k != "_target_"}
+    target = str(valve_cfg._target_)
+    if target.endswith("PhysicalValve"):
+        return PhysicalValve(**params).equivalent_two_parameter()
+    if "S" in params:
+        return float(params["S"]), float(params.get("J", 0.0))
+    return float(params.get("deadband", 0.0)), 0.0
 
 
 def variants(estimators: dict[str, Any]) -> list[tuple[str, str, str | None, str | None]]:
@@ -153,7 +187,37 @@ def variants(estimators: dict[str, Any]) -> list[tuple[str, str, str | None, str
     for name in sorted(reg):
         if name not in named:
             out.append((name, name, None, None))
+    only = estimators.get("only")
+    if only is not None:
+        only = [only] if isinstance(only, str) else list(only)
+        missing = sorted(set(only) - {v[0] for v in out})
+        if missing:
+            raise InputError(f"estimators.only: unknown column prefix {missing[0]!r}; "
+                             f"known: {', '.join(v[0] for v in out)}")
+        out = [v for v in out if v[0] in only]
     return out
+
+
+def variant_params(estimators: dict[str, Any], prefix: str, name: str,
+                   Ts: float) -> dict[str, Any]:
+    """Constructor parameters of one variant.
+
+    ``estimators.params.<prefix>`` when it exists, else ``estimators.params.<name>``;
+    then ``estimators.in_seconds`` (parameter -> seconds) converted to samples of the
+    recording (``round(seconds / Ts)``, at least 1) for every variant that has the
+    parameter, so a window fixed in seconds stays fixed when the sampling changes.
+    """
+    from ..estimators import get_class
+
+    params = dict((estimators.get("params") or {}).get(prefix)
+                  or (estimators.get("params") or {}).get(name) or {})
+    seconds = estimators.get("in_seconds") or {}
+    if seconds:
+        names = get_class(name).param_names()
+        for key, sec in seconds.items():
+            if key in names:
+                params[key] = max(1, int(round(float(sec) / Ts)))
+    return params
 
 
 def execute(run_id: str, spec: dict[str, Any]) -> dict[str, Any]:
@@ -182,8 +246,18 @@ def execute(run_id: str, spec: dict[str, Any]) -> dict[str, Any]:
         row.update({"true_S": None, "true_J": None, "label_stiction": None})
         row["error"] = row["error"] or _one_line(exc)
         row["status"] = "error"
+    if rec is not None and (run.get("noise_op") or run.get("noise_mv")):
+        from ..sim.measurement import add_measurement_noise
+
+        try:
+            rec = add_measurement_noise(rec, {"OP": run.get("noise_op") or 0.0,
+                                              "MV": run.get("noise_mv") or 0.0},
+                                        seed=int(run["seed"]))
+        except Exception as exc:
+            row["status"] = "error"
+            row["error"] = _one_line(exc)
+            rec = None
     if rec is not None:
-        params = spec["estimators"].get("params") or {}
         try:
             todo = variants(spec["estimators"])
         except Exception as exc:
@@ -193,8 +267,9 @@ def execute(run_id: str, spec: dict[str, Any]) -> dict[str, Any]:
         for prefix, name, x, y in todo:
             te = time.perf_counter()
             try:
-                res = make(name, **(params.get(name) or {})).estimate(rec, x=x, y=y)
-                row.update({k: _clean(v) for k, v in res.flat(prefix).items()})
+                params = variant_params(spec["estimators"], prefix, name, rec.Ts)
+                res = make(name, **params).estimate(rec, x=x, y=y)
+                row.update({k: jsonable(v) for k, v in res.flat(prefix).items()})
                 row[f"{prefix}_error"] = None
             except Exception as exc:
                 row[f"{prefix}_value"] = None
@@ -203,7 +278,7 @@ def execute(run_id: str, spec: dict[str, Any]) -> dict[str, Any]:
             row[f"{prefix}_time_s"] = time.perf_counter() - te
     row["wall_time_s"] = time.perf_counter() - t0
     row["worker"] = WORKER
-    return {k: _clean(v) for k, v in row.items()}
+    return {k: jsonable(v) for k, v in row.items()}
 
 
 def write_row(path: Path, row: dict[str, Any]) -> None:

@@ -1,14 +1,18 @@
 """A toy third-party estimator: the lag of the plain cross-correlation peak."""
 
+from numbers import Integral
+
 import numpy as np
 
 from stictionbench.estimators import EstimateResult, Estimator
+from stictionbench.validation import Interval
 
 
 class PeakLag(Estimator):
     """Lag (samples) at which ``y`` best matches ``x`` (positive: y lags x)."""
 
     name = "peak_lag"
+    _parameter_constraints = {"max_lag": [Interval(Integral, 1, None)]}
 
     def __init__(self, max_lag: int = 20) -> None:
         self.max_lag = max_lag

@@ -1,0 +1,143 @@
+"""Noise models of the output error and Ljung's residual tests.
+
+Every hypothesis of the diagnosis is a deterministic part (the physics) plus a noise model
+``H(q)`` on its output error: ``y = G(u; θ) + H(q)e`` with ``e`` white. The predictor's
+one-step errors are the *innovations* ``ε = H(q)⁻¹(y − G(u; θ))`` (Ljung, *System
+Identification*, 2nd ed. 1999, ch. 7.2 and 16.6). Here ``H⁻¹ = A(q)·(1 − q⁻¹)^d`` with
+``A`` an autoregressive polynomial: an AR model of the output error, with an integrated
+option (``d = 1``) for a load that drifts like a random walk. The order ``p`` and ``d`` are
+chosen by BIC (Yule–Walker by ``statsmodels.tsa.stattools.levinson_durbin``, on the residual
+and on its first difference, the two likelihoods being of the same data since differencing has unit
+Jacobian).
+
+Tests on innovations (Ljung ch. 16.6): whiteness by the Ljung–Box portmanteau
+(``statsmodels.stats.diagnostic.acorr_ljungbox``) and independence from past inputs by
+the cross-correlation statistic ``N·Σ r̂²_εu(τ)`` (χ² with ``M`` degrees of freedom) with
+the input pre-whitened by the same filter.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.signal import lfilter
+from scipy.stats import chi2
+
+#: largest AR order of a noise model
+MAX_ORDER = 12
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """``H(q)⁻¹ = A(q)(1 − q⁻¹)^d``: ``ar`` holds ``[1, a₁, …, a_p]``."""
+
+    ar: np.ndarray
+    integrated: bool
+    sigma2: float
+    bic: float
+
+    @property
+    def order(self) -> int:
+        return int(self.ar.size - 1)
+
+    def inverse(self) -> np.ndarray:
+        """The whitening FIR filter ``A(q)(1 − q⁻¹)^d`` as coefficients in ``q⁻¹``."""
+        return np.convolve(self.ar, [1.0, -1.0]) if self.integrated else self.ar
+
+    def whiten(self, x: np.ndarray) -> np.ndarray:
+        """Innovations of ``x`` (applied along the first axis, zero initial state)."""
+        b = self.inverse()
+        if b.size == 1:
+            return x * b[0]
+        if np.ndim(x) == 1:
+            return np.convolve(x, b)[: len(x)]
+        return lfilter(b, [1.0], x, axis=0)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"family": "ARI" if self.integrated else "AR", "ar_order": self.order,
+                "integrated": bool(self.integrated), "ar": [float(a) for a in self.ar[1:]],
+                "innovation_variance": float(self.sigma2)}
+
+
+WHITE = NoiseModel(np.ones(1), False, math.nan, math.nan)
+
+
+def _ar_fit(x: np.ndarray, max_order: int) -> tuple[np.ndarray, float, float]:
+    """AR polynomial ``[1, −φ₁, …]``, innovation variance and BIC of ``x``: Yule–Walker
+    estimates of every order up to ``max_order`` by the Levinson–Durbin recursion
+    (``statsmodels.tsa.stattools.levinson_durbin``), the order by BIC."""
+    from statsmodels.tsa.stattools import acovf, levinson_durbin
+
+    x = np.asarray(x, float) - float(np.mean(x))
+    n = x.size
+    acov = acovf(x, fft=True, nlag=max_order)
+    if acov[0] <= 0:
+        return np.ones(1), 0.0, -math.inf
+    _, _, _, sig, phis = levinson_durbin(acov, nlags=max_order, isacov=True)
+    sig = np.asarray(sig, float).copy()
+    sig[0] = acov[0]  # statsmodels leaves the order-0 entry at zero
+    sig = np.maximum(sig, 1e-300)
+    bic = n * np.log(sig) + np.arange(sig.size) * math.log(n)
+    p = int(np.argmin(bic))
+    if p == 0:
+        return np.ones(1), float(sig[0]), float(bic[0])
+    phi = np.asarray(phis, float)[1: p + 1, p]
+    return np.r_[1.0, -phi], float(sig[p]), float(bic[p])
+
+
+def fit_noise_model(r: np.ndarray, max_order: int = MAX_ORDER,
+                    allow_integrated: bool = True) -> NoiseModel:
+    """AR (or integrated AR) noise model of an output error ``r`` chosen by BIC.
+
+    Parameters
+    ----------
+    r : ndarray
+        Output error of a deterministic model (training samples, in time order).
+    max_order : int
+        Largest AR order tried.
+    allow_integrated : bool
+        Also try the model of the first difference (a random-walk load).
+    """
+    r = np.asarray(r, float)
+    max_order = int(max(1, min(max_order, r.size // 20)))
+    a0, s0, b0 = _ar_fit(r[1:], max_order)
+    best = NoiseModel(a0, False, s0, b0)
+    if allow_integrated:
+        a1, s1, b1 = _ar_fit(np.diff(r), max_order)
+        if b1 < b0:
+            best = NoiseModel(a1, True, s1, b1)
+    return best
+
+
+def ljung_box(e: np.ndarray, lags: int = 20) -> dict[str, float]:
+    """Ljung–Box whiteness test of innovations (statsmodels)."""
+    from statsmodels.stats.diagnostic import acorr_ljungbox
+
+    lags = int(max(1, min(lags, e.size // 5)))
+    tab = acorr_ljungbox(np.asarray(e, float), lags=[lags])
+    return {"statistic": float(tab["lb_stat"].iloc[0]),
+            "p_value": float(tab["lb_pvalue"].iloc[0]), "lags": lags}
+
+
+def input_independence(e: np.ndarray, u: np.ndarray, lags: int = 20) -> dict[str, float]:
+    """Ljung's test that innovations ``e`` are uncorrelated with the (pre-whitened) input
+    ``u`` at lags ``0 … lags−1``: ``N·Σ r̂²`` against χ²(``lags``)."""
+    e = np.asarray(e, float) - float(np.mean(e))
+    u = np.asarray(u, float) - float(np.mean(u))
+    n = e.size
+    den = math.sqrt(float(np.dot(e, e)) * float(np.dot(u, u)))
+    if den <= 0 or n <= lags + 2:
+        return {"statistic": 0.0, "p_value": 1.0, "lags": int(lags)}
+    r = np.array([float(np.dot(e[k:], u[: n - k])) for k in range(lags)]) / den
+    stat = float(n * np.sum(r * r))
+    return {"statistic": stat, "p_value": float(chi2.sf(stat, lags)), "lags": int(lags)}
+
+
+def lr_test(v_null: float, v_alt: float, n: int, df: int) -> dict[str, float]:
+    """Likelihood-ratio test of nested Gaussian predictors from their innovation
+    variances: ``N·ln(V₀/V₁)`` against χ²(df)."""
+    stat = float(n * math.log(max(v_null, 1e-300) / max(v_alt, 1e-300)))
+    return {"statistic": stat, "p_value": float(chi2.sf(max(stat, 0.0), df)), "df": int(df)}

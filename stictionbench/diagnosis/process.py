@@ -1,0 +1,72 @@
+"""Low-order process identification from a recorded input and PV: the output-error
+FOPDT fit used for the nominal model when none is given, and for the process part of the
+closed-loop Hammerstein identification (:mod:`.hammerstein`).
+
+Reference: Ljung, *System Identification* (1999), ch. 7 (output-error models);
+Seborg et al., *Process Dynamics and Control* (FOPDT).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import minimize
+
+from ..recording import Recording
+from .model import NominalModel, identify_pi
+from .openloop import fopdt_response, highpass
+
+
+def fit_fopdt(u: np.ndarray, pv: np.ndarray, Ts: float,
+              f_hp_factor: float = 1 / 15) -> tuple[float, float, float]:
+    """Output-error FOPDT fit ``u → pv``: a grid over τ and θ with the gain solved
+    linearly on high-passed signals, then Nelder–Mead. Returns ``(K, τ, θ)``."""
+    n = u.size
+    T = n * Ts
+    taus = np.geomspace(Ts, max(2 * Ts, T / 8), 14)
+    thetas = np.arange(0.0, min(T / 8, 60 * Ts) + 1e-9, max(Ts, T / 8 / 30))
+
+    def cost(tau: float, theta: float) -> tuple[float, float]:
+        f_hp = f_hp_factor / (2 * math.pi * (tau + theta))
+        y = highpass(pv, Ts, f_hp)
+        g = highpass(fopdt_response(u, Ts, tau, theta), Ts, f_hp)
+        burn = min(int((theta + 3 * tau) / Ts), n // 5)
+        gg = float(np.dot(g[burn:], g[burn:]))
+        if gg <= 0:
+            return math.inf, 0.0
+        K = float(np.dot(g[burn:], y[burn:]) / gg)
+        r = y[burn:] - K * g[burn:]
+        # normalise by the PV energy in the same band so that cut-offs compare fairly
+        yy = float(np.dot(y[burn:], y[burn:])) or 1.0
+        return float(np.dot(r, r) / yy), K
+
+    best = (math.inf, Ts, 0.0)
+    for tau in taus:
+        for th in thetas:
+            c, _ = cost(tau, th)
+            if c < best[0]:
+                best = (c, tau, th)
+    tau_max, theta_max = max(2 * Ts, T / 2), max(Ts, T / 4)
+
+    def clip(z):
+        return (min(math.exp(min(z[0], 50.0)), tau_max), min(max(z[1], 0.0), theta_max))
+
+    res = minimize(lambda z: cost(*clip(z))[0],
+                   [math.log(best[1]), best[2]], method="Nelder-Mead",
+                   options={"xatol": 1e-3, "fatol": 1e-10, "maxiter": 200})
+    tau, theta = clip(res.x)
+    if res.fun > best[0]:
+        tau, theta = best[1], best[2]
+    _, K = cost(tau, theta)
+    return K, tau, theta
+
+
+def identify_fopdt(rec: Recording, f_hp_factor: float = 1 / 15) -> NominalModel:
+    """Identify a FOPDT nominal model from OP → PV (see :func:`fit_fopdt`) and a PI
+    controller from SP, PV, OP when SP is recorded."""
+    K, tau, theta = fit_fopdt(np.asarray(rec.OP, float), np.asarray(rec.PV, float), rec.Ts,
+                              f_hp_factor)
+    pi = identify_pi(rec)
+    return NominalModel(K, tau, theta, pi[0] if pi else None, pi[1] if pi else None, rec.Ts,
+                        "identified")

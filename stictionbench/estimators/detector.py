@@ -1,0 +1,202 @@
+"""What the published stiction detectors share: a three-way verdict, the control error,
+the oscillation gate and the half cycles of an oscillating signal.
+
+Each detector (``horch``, ``he``, ``area_ratio``, ``kano``, ``yamashita``) subclasses
+:class:`StictionDetector` and returns an :class:`~.base.EstimateResult` whose
+``decision`` is True (stiction), False (no stiction) or None (inconclusive), with the
+``verdict`` (``"stiction"``, ``"no_stiction"``, ``"inconclusive"``) and a short
+``reason`` in its diagnostics.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+from scipy import signal as sps
+
+from ..errors import InputError
+from ..recording import Recording
+from ..validation import check_signal
+from .base import EstimateResult, Estimator
+from .oscillation import MIN_SAMPLES, AcfOscillation, acf_oscillation, bandpass
+
+#: the verdict names of a three-way decision
+VERDICTS = {True: "stiction", False: "no_stiction", None: "inconclusive"}
+MEANING = "valve stiction (None: inconclusive)"
+
+
+def verdict(decision: bool | None) -> str:
+    """``"stiction"``, ``"no_stiction"`` or ``"inconclusive"`` for True, False, None.
+
+    Examples
+    --------
+    >>> verdict(True), verdict(None)
+    ('stiction', 'inconclusive')
+    """
+    return VERDICTS[decision]
+
+
+def three_way(index: float, low: float, high: float) -> bool | None:
+    """The rule "``index <= low``: no stiction, ``index >= high``: stiction, else
+    inconclusive" (None also for a NaN index).
+
+    Examples
+    --------
+    >>> three_way(0.7, 0.4, 0.6), three_way(0.5, 0.4, 0.6), three_way(0.1, 0.4, 0.6)
+    (True, None, False)
+    """
+    if not math.isfinite(index):
+        return None
+    if index >= high:
+        return True
+    if index <= low:
+        return False
+    return None
+
+
+def control_error(y: np.ndarray, rec: Recording, use_error: bool) -> np.ndarray:
+    """The control error ``SP − y`` when ``use_error`` and the set point is recorded,
+    else ``y`` itself.
+
+    Most detectors were published for regulatory loops at a constant set point, where
+    PV and the control error differ only in sign and mean. Under set-point changes the
+    error is the signal that still carries the loop's own dynamics (PV also carries
+    the set-point steps).
+    """
+    if use_error and rec.SP is not None:
+        return np.asarray(rec.SP, dtype=float) - y
+    return y
+
+
+def loop_signals(name: str, x: np.ndarray, y: np.ndarray | None, rec: Recording,
+                 use_error: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Checked OP (``x``) and control error (:func:`control_error` of ``y``, the PV; OP
+    itself when ``y`` is None) of a detector named ``name``.
+
+    Raises
+    ------
+    InputError
+        On a non-finite, constant or too short signal.
+    """
+    x = check_signal(x, f"{name} OP", min_len=MIN_SAMPLES)
+    y = check_signal(x if y is None else y, f"{name} PV", min_len=MIN_SAMPLES)
+    return x, control_error(y, rec, use_error)
+
+
+def ordered(name: str, low_name: str, low: float, high_name: str, high: float) -> None:
+    """One-line InputError unless ``low <= high`` (the two edges of an inconclusive band)."""
+    if low > high:
+        raise InputError(f"{name}: parameter {low_name}={low!r} must not exceed "
+                         f"{high_name}={high!r}")
+
+
+def oscillation(x: np.ndarray) -> AcfOscillation:
+    """Thornhill, Huang & Zhang (2003) oscillation detection with the defaults of
+    :func:`~.oscillation.acf_oscillation` (ACF zero crossings, regularity ``r > 1``)."""
+    return acf_oscillation(x)
+
+
+def harmonic_filter(x: np.ndarray, period: float, harmonics: float = 10.0) -> np.ndarray:
+    """Zero-phase band-pass from half the oscillation frequency to ``harmonics`` times
+    it: drift and noise go, the harmonics that make a wave triangular or square stay.
+
+    Parameters
+    ----------
+    x : ndarray
+        Signal.
+    period : float
+        Oscillation period in samples.
+    harmonics : float
+        Upper band edge as a multiple of the oscillation frequency (capped at 0.5).
+    """
+    f0 = 1.0 / float(period)
+    return bandpass(sps.detrend(x), (0.5 * f0, min(0.5, harmonics * f0)))
+
+
+def setpoint_changes(rec: Recording) -> np.ndarray:
+    """Indices ``i`` where the recorded set point differs from sample ``i − 1`` (empty
+    when SP is not recorded)."""
+    if rec.SP is None:
+        return np.empty(0, dtype=int)
+    sp = np.asarray(rec.SP, dtype=float)
+    return np.flatnonzero(np.abs(np.diff(sp)) > 1e-9 * (1.0 + np.abs(sp[1:]))) + 1
+
+
+def half_cycles(x: np.ndarray, period: float, min_fraction: float = 0.25,
+                exclude: np.ndarray | None = None) -> list[tuple[float, int, int, float]]:
+    """Half cycles of an oscillating, zero-mean signal between successive sign changes.
+
+    Sign changes closer than ``min_fraction`` of a half period to the previous kept one
+    are noise and are skipped; the stretch before the first and after the last crossing
+    is incomplete and dropped, and so is every half cycle holding an index of
+    ``exclude`` (set-point changes: a forced response, not the loop's own oscillation).
+
+    Returns
+    -------
+    list of (z0, a, b, z1)
+        Interpolated crossing times ``z0 < a`` and ``z1 >= b − 1`` (fractional samples)
+        around the samples ``x[a:b]`` of the half cycle, which have one sign (up to
+        skipped noise).
+
+    Examples
+    --------
+    >>> x = np.sin(2 * np.pi * np.arange(200) / 50 + 0.1)
+    >>> [(round(z0, 2), a, b) for z0, a, b, z1 in half_cycles(x, 50.0)]
+    [(24.2, 25, 50), (49.2, 50, 75), (74.2, 75, 100), (99.2, 100, 125), (124.2, 125, 150), \
+(149.2, 150, 175)]
+    """
+    x = np.asarray(x, dtype=float)
+    pos = x > 0
+    cross = np.flatnonzero(pos[1:] != pos[:-1]) + 1
+    gap = min_fraction * 0.5 * float(period)
+    kept: list[int] = []
+    for c in cross:
+        if not kept or c - kept[-1] >= gap:
+            kept.append(int(c))
+    # crossing between samples c − 1 and c, linearly interpolated
+    z = [c - 1 + x[c - 1] / (x[c - 1] - x[c]) for c in kept]
+    skip = np.asarray([] if exclude is None else exclude, dtype=int)
+    out = []
+    for i in range(len(kept) - 1):
+        a, b = kept[i], kept[i + 1]
+        if skip.size and np.any((skip >= a) & (skip < b)):
+            continue
+        out.append((float(z[i]), a, b, float(z[i + 1])))
+    return out
+
+
+class StictionDetector(Estimator):
+    """Base class of the published stiction detectors.
+
+    Subclasses implement ``_estimate`` and build their result with :meth:`_result`.
+    ``optional_y`` detectors (those needing MV) return an inconclusive verdict instead
+    of an error when their second signal is not recorded.
+    """
+
+    optional_y: ClassVar[bool] = False
+
+    def estimate(self, rec: Recording, x: str | None = None, y: str | None = None
+                 ) -> EstimateResult:
+        """As :meth:`Estimator.estimate`; a missing optional ``y`` signal is passed as
+        None (the detector decides what that means)."""
+        yname = y or self.default_y
+        if self.optional_y and yname and getattr(rec, yname, None) is None:
+            self.check_params()
+            xs = np.asarray(rec.signal(x or self.default_x), float)
+            return self._estimate(xs, None, rec)
+        return super().estimate(rec, x, y)
+
+    def _result(self, value: float, decision: bool | None, reason: str, *,
+                units: str = "-", **diagnostics: Any) -> EstimateResult:
+        """The EstimateResult with ``verdict`` and ``reason`` first in diagnostics."""
+        diag = {"verdict": verdict(decision), "reason": reason, **diagnostics}
+        return EstimateResult(method=self.name, value=float(value), units=units,
+                              decision=decision, meaning=MEANING, diagnostics=diag)
+
+    def _no_oscillation(self, osc: AcfOscillation, **diagnostics: Any) -> EstimateResult:
+        """The inconclusive result of a loop that does not oscillate."""
+        return self._result(float("nan"), None, "no oscillation",
+                            regularity=osc.regularity, period_samples=osc.period_samples,
+                            **diagnostics)

@@ -1,0 +1,159 @@
+"""Yamashita's qualitative-shape stiction index from the OP–MV plot.
+
+Each sample of the controller output (OP) and valve position (MV) is described by a
+symbol — I (increasing), D (decreasing) or S (steady) — and each sample of the pair by
+two symbols, OP's then MV's. A sticky valve spends long stretches in IS and DS (OP moves,
+the valve does not); a healthy valve moves with OP (II, DD). In a flow loop the flow
+(PV) follows the valve without dynamics, so PV may stand in for an unrecorded MV.
+"""
+
+from __future__ import annotations
+
+from numbers import Real
+from typing import ClassVar
+
+import numpy as np
+
+from ..recording import Recording
+from ..validation import Constraint, Interval, TypeOf
+from .base import EstimateResult
+from .detector import StictionDetector
+from .kano import finite_pair
+
+SYMBOLS = ("D", "S", "I")
+
+
+def difference_noise(x: np.ndarray) -> float:
+    """Robust standard deviation of the measurement noise in the first differences of
+    ``x``: white noise of variance σ² gives second differences of variance 6σ² and first
+    differences of 2σ²; the MAD of the second differences ignores the few large ones a
+    smooth signal has at its corners.
+
+    Examples
+    --------
+    >>> e = np.random.default_rng(0).standard_normal(20000)
+    >>> round(float(difference_noise(np.linspace(0, 50, 20000) + e) / np.sqrt(2)), 1)
+    1.0
+    """
+    d2 = np.diff(np.asarray(x, dtype=float), 2)
+    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    return mad / 0.6745 / np.sqrt(6.0) * np.sqrt(2.0)
+
+
+def symbols(x: np.ndarray, tolerance: float, noise_factor: float = 3.0) -> np.ndarray:
+    """Qualitative symbol of each first difference of ``x``: ``-1`` (D), ``0`` (S), ``1``
+    (I). A difference is steady when ``|Δx|`` is within ``tolerance·std(Δx)`` or within
+    ``noise_factor`` times the noise of the differences (:func:`difference_noise`), so
+    that measurement noise alone reads as steady.
+
+    Examples
+    --------
+    >>> x = np.r_[np.arange(6.0), np.full(4, 5.0), np.arange(4.0, 1.0, -1)]
+    >>> "".join("DSI"[q + 1] for q in symbols(x, 0.1))
+    'IIIIISSSSDDD'
+    """
+    d = np.diff(np.asarray(x, dtype=float))
+    band = max(tolerance * float(d.std()), noise_factor * difference_noise(x))
+    q = np.zeros(d.size, dtype=int)
+    q[d > band] = 1
+    q[d < -band] = -1
+    return q
+
+
+def pattern_times(op: np.ndarray, mv: np.ndarray, tolerance: float) -> dict[str, int]:
+    """Samples spent in each of the nine OP–MV symbol pairs (``"IS"``: OP increasing,
+    MV steady, ...).
+
+    Examples
+    --------
+    >>> op = np.arange(10.0)
+    >>> mv = np.r_[np.zeros(5), np.arange(5.0)]
+    >>> t = pattern_times(op, mv, 0.1)
+    >>> t["IS"], t["II"], t["SS"]
+    (5, 4, 0)
+    """
+    qo, qm = symbols(op, tolerance), symbols(mv, tolerance)
+    code = (qo + 1) * 3 + (qm + 1)
+    counts = np.bincount(code, minlength=9)
+    return {SYMBOLS[i // 3] + SYMBOLS[i % 3]: int(counts[i]) for i in range(9)}
+
+
+class Yamashita(StictionDetector):
+    """Stiction index of Yamashita (2006) from the qualitative shape of the OP–MV plot.
+
+    Steps: describe each first difference of OP and of MV by I, D or S
+    (:func:`symbols`: steady within ``tolerance`` standard deviations of the signal's
+    differences or within three times their noise level), count the samples in each
+    OP–MV pair (:func:`pattern_times`) and form
+
+    ``ρ = (τ_IS + τ_DS) / (τ_total − τ_SS)``,
+
+    the share of the time in which something moves that OP moves while the valve stays
+    put. Published rule: ``ρ > 0.25`` stiction, else no stiction. Inconclusive when
+    OP's range is within ``op_tolerance`` ("OP constant": movements inside a good
+    valve's 1 % dead band cannot tell), when nothing moves ("no movement") or when MV
+    is not recorded and the loop is not a flow loop ("not a flow loop"); in a flow loop
+    (``flow_loop=True``) PV stands in for a missing MV.
+
+    The steady band (``tolerance = 0.1`` and the 3-σ noise floor) and ``op_tolerance``
+    are our a-priori choices (as in :class:`~.kano.Kano`); the paper sets the band from
+    the signals' noise.
+
+    Parameters
+    ----------
+    flow_loop : bool
+        The loop controls a flow: PV may replace an unrecorded MV.
+    tolerance : float
+        Steady band of the differences, in standard deviations of the differences.
+    threshold : float
+        ``ρ`` above which the valve is called sticky (0.25).
+    op_tolerance : float
+        OP range (OP units, % of span) at or below which OP counts as constant.
+
+    References
+    ----------
+    Y. Yamashita, "An automatic method for detection of valve stiction in process
+    control loops", Control Engineering Practice 14 (2006) 503–510.
+    """
+
+    name = "yamashita"
+    default_x = "OP"
+    default_y = "MV"
+    optional_y = True
+
+    _parameter_constraints: ClassVar[dict[str, list[Constraint]]] = {
+        "flow_loop": [TypeOf(bool)],
+        "tolerance": [Interval(Real, 0, None)],
+        "threshold": [Interval(Real, 0, 1)],
+        "op_tolerance": [Interval(Real, 0, None)],
+    }
+
+    def __init__(self, flow_loop: bool = False, tolerance: float = 0.1,
+                 threshold: float = 0.25, op_tolerance: float = 1.0) -> None:
+        self.flow_loop = flow_loop
+        self.tolerance = tolerance
+        self.threshold = threshold
+        self.op_tolerance = op_tolerance
+
+    def _estimate(self, x: np.ndarray, y: np.ndarray | None, rec: Recording
+                  ) -> EstimateResult:
+        rule = {"threshold": self.threshold, "tolerance": self.tolerance,
+                "op_tolerance": self.op_tolerance, "flow_loop": self.flow_loop}
+        nan = float("nan")
+        valve = "MV"
+        if y is None:
+            if not self.flow_loop:
+                return self._result(nan, None, "not a flow loop", valve=None, **rule)
+            y, valve = np.asarray(rec.PV, dtype=float), "PV"
+        finite_pair(self.name, x, y)
+        if np.ptp(x) <= self.op_tolerance:
+            return self._result(nan, None, "OP constant", valve=valve, **rule)
+        times = pattern_times(x, y, self.tolerance)
+        moving = x.size - 1 - times["SS"]
+        if moving <= 0:
+            return self._result(nan, None, "no movement", valve=valve, **rule)
+        rho = (times["IS"] + times["DS"]) / moving
+        decision = rho > self.threshold
+        return self._result(
+            rho, decision, "valve steady while OP moves" if decision else "valve moves with OP",
+            valve=valve, **{f"time_{k}": v for k, v in times.items()}, **rule)

@@ -1,0 +1,294 @@
+"""The published stiction detectors side by side on real loops (Jelali & Huang 2010, ch. 13).
+
+Every method gives ``stiction``, ``no_stiction`` or ``inconclusive`` (with its reason)
+per recording window; :func:`loop_verdicts` turns windows into one verdict per physical
+loop (majority of the decided windows), :func:`method_rates` scores each method with
+Wilson intervals, and :mod:`.consensus` combines them.
+
+Methods (each with its paper's rule and default thresholds; see the estimators):
+
+- ``horch`` — Horch (1999) OP–PV cross-correlation (odd ⇒ stiction); integrating loops
+  are out of scope (inconclusive);
+- ``he`` — He et al. (2007) triangle vs sine curve fitting of the control error;
+- ``area_ratio`` — Singhal & Salsbury (2005);
+- ``kano`` — Kano et al. (2004) method A on the OP–MV plot (PV stands for MV in flow
+  loops; otherwise inconclusive: MV not recorded);
+- ``yamashita`` — Yamashita (2006) qualitative shapes (same MV rule);
+- ``choudhury`` — Choudhury, Shah & Thornhill (2004, 2006): bicoherence NGI/NLI on the
+  control error, then the PV–OP ellipse fit: nonlinear and an ellipse ⇒ stiction;
+  Gaussian or linear ⇒ no stiction (not a valve nonlinearity);
+- ``hammerstein`` — closed-loop Hammerstein identification (Srinivasan et al. 2005;
+  Jelali 2008; Karra & Karim 2009; :mod:`stictionbench.diagnosis.hammerstein`): a
+  stick-slip valve with FOPDT process by the prediction-error method; stiction when the
+  valve beats the linear loop and the interval of the slip jump J excludes 0;
+- ``delay_est_mv`` — the seed paper's CO→MV delay with MV from that fitted valve;
+- ``ellipse_v1`` — this project's first-release rule (ellipse axis ratio and residual,
+  thresholds chosen after looking at these loops: **in-sample**, shown for reference).
+
+The two model-based methods share one fit (about a second per window).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..estimators import make
+from ..rates import rate_text, wilson
+from ..recording import Recording
+from .quality import prepare
+
+VERDICTS = ("stiction", "no_stiction", "inconclusive")
+#: loop types of plant tags and ISDB descriptions: F flow, L level, P pressure,
+#: T temperature, A analyser/concentration/composition, PD differential pressure
+TYPE_WORDS = {"flow": "F", "level": "L", "pressure": "P", "temperature": "T",
+              "analyser": "A", "concentration": "A", "composition": "A"}
+
+
+def loop_type(rec: Recording) -> str:
+    """Loop type from the labels (``loop_type``, else the first word of ``desc``);
+    ``"?"`` when unknown.
+
+    Examples
+    --------
+    >>> r = Recording.from_arrays(np.arange(200.0), np.zeros(200), np.ones(200),
+    ...                           meta={"labels": {"desc": "flow; FC145"}})
+    >>> loop_type(r)
+    'F'
+    """
+    lab = dict(rec.meta.get("labels") or {})
+    if lab.get("loop_type"):
+        return str(lab["loop_type"]).upper()
+    word = str(lab.get("desc", "")).split(";")[0].strip().lower()
+    return TYPE_WORDS.get(word, "?")
+
+
+@dataclass(frozen=True)
+class Call:
+    """One method's verdict on one window."""
+
+    verdict: str
+    reason: str
+    value: float | None = None
+
+
+def _from_result(res) -> Call:
+    d = res.diagnostics
+    v = d.get("verdict") or {True: "stiction", False: "no_stiction"}.get(res.decision,
+                                                                          "inconclusive")
+    val = float(res.value) if res.value is not None and math.isfinite(res.value) else None
+    return Call(v, str(d.get("reason", "")), val)
+
+
+def _detector(name: str, params: Callable[[str], dict[str, Any]] | None = None,
+              mv_rule: bool = False) -> Callable[[Recording, str], Call]:
+    def run(rec: Recording, kind: str) -> Call:
+        y = "PV"
+        if mv_rule:
+            if rec.MV is not None:
+                y = "MV"
+            elif kind != "F":
+                return Call("inconclusive", "MV not recorded and not a flow loop")
+        kw = params(kind) if params else {}
+        return _from_result(make(name, **kw).estimate(rec, x="OP", y=y))
+    return run
+
+
+def _choudhury(rec: Recording, kind: str) -> Call:
+    bic = make("bicoherence").estimate(rec, x="PV")
+    d = bic.diagnostics
+    if not d.get("non_gaussian"):
+        return Call("no_stiction", "Gaussian (NGI ≤ 0): no nonlinearity", float(d["ngi"]))
+    if not bic.decision:
+        return Call("no_stiction", "non-Gaussian but linear (NLI ≤ 0)", float(d["nli"]))
+    ell = make("ellipse").estimate(rec, x="OP", y="PV")
+    if ell.diagnostics.get("fitted") and ell.value and ell.value > 0:
+        return Call("stiction", "nonlinear, PV–OP ellipse", float(ell.value))
+    return Call("inconclusive", "nonlinear, no PV–OP ellipse", float(d["nli"]))
+
+
+def _ellipse_v1(rec: Recording, kind: str) -> Call:
+    from .verdict import StictionRule, assess
+
+    e = assess(rec, str(rec.meta.get("name", "")), StictionRule(), run_diagnosis=False)
+    return Call(str(e["verdict"]).replace("unusable", "inconclusive"),
+                "first-release ellipse rule (in-sample)", e.get("ellipse_axis_ratio"))
+
+
+_FITS: dict[int, Any] = {}  # the Hammerstein fit of the window being judged (one fit, two calls)
+
+
+def _hammerstein_fit(rec: Recording):
+    from ..diagnosis.hammerstein import fit_hammerstein
+
+    key = id(rec)
+    if key not in _FITS:
+        _FITS.clear()
+        _FITS[key] = fit_hammerstein(rec)
+    return _FITS[key]
+
+
+def _hammerstein(rec: Recording, kind: str) -> Call:
+    """Closed-loop Hammerstein identification (stick-slip valve + FOPDT, prediction-error
+    method): stiction when the valve beats the linear loop and J's interval excludes 0."""
+    h = _hammerstein_fit(rec)
+    if h.stiction:
+        return Call("stiction", f"stick-slip valve, J = {h.J:.2g} % "
+                                f"[{h.J_interval[0]:.2g}, {h.J_interval[1]:.2g}]", h.J)
+    if h.sticky:
+        return Call("no_stiction", "dead band without slip jump (J interval holds 0)", h.J)
+    return Call("no_stiction", "no valve nonlinearity beats the linear loop", h.S)
+
+
+def _delay_estimated_mv(rec: Recording, kind: str) -> Call:
+    """The paper's CO→MV delay (``xcorr``) with MV from the fitted Hammerstein valve
+    (plants do not record MV); delay > 0.5 samples ⇒ stiction."""
+    h = _hammerstein_fit(rec)
+    if h.S <= 0 or np.ptp(h.mv) <= 0:
+        return Call("no_stiction", "the fitted valve moves with OP (no estimated lag)", 0.0)
+    est = Recording(t=rec.t, PV=rec.PV, OP=rec.OP, MV=np.asarray(h.mv, float), Ts=rec.Ts,
+                    meta=rec.meta)
+    c = _from_result(make("xcorr").estimate(est, x="OP", y="MV"))
+    if c.reason or c.value is None:
+        return c
+    side = "lags" if c.verdict == "stiction" else "does not lag"
+    return Call(c.verdict, f"estimated MV {side} OP: delay {c.value:.3g} s", c.value)
+
+
+#: name -> function(recording, loop type) -> Call; in the order of the report
+METHODS: dict[str, Callable[[Recording, str], Call]] = {
+    "horch": _detector("horch", lambda k: {"integrating": k == "L"}),
+    "he": _detector("he", lambda k: {"integrating": k == "L"}),
+    "area_ratio": _detector("area_ratio"),
+    "kano": _detector("kano", mv_rule=True),
+    "yamashita": _detector("yamashita", lambda k: {"flow_loop": k == "F"}, mv_rule=True),
+    "choudhury": _choudhury,
+    "hammerstein": _hammerstein,
+    "delay_est_mv": _delay_estimated_mv,
+    "ellipse_v1": _ellipse_v1,
+}
+#: methods whose thresholds were not set on the shared real loops
+PUBLISHED = ("horch", "he", "area_ratio", "kano", "yamashita", "choudhury", "hammerstein",
+             "delay_est_mv")
+#: methods that fit a model (about a second per window): compared, and in the consensus
+#: only when batch can afford them (see :data:`FAST`)
+FAST = ("horch", "he", "area_ratio", "kano", "yamashita", "choudhury")
+
+
+def window_calls(rec: Recording, name: str,
+                 methods: Iterable[str] = tuple(METHODS)) -> dict[str, Any]:
+    """Every method's call on one window, after the data-quality screen (held samples
+    of a compressed record treated as missing: :func:`.quality.prepare`).
+
+    Returns ``{"name", "group", "label", "loop_type", "quality", "<method>": Call...}``;
+    an unusable window gets ``unusable`` from every method, with the screen's reason.
+    """
+    kind = loop_type(rec)
+    rec, q, released = prepare(rec)
+    out: dict[str, Any] = {"name": name, "group": str(rec.meta.get("group", name)),
+                           "label": rec.meta.get("label"), "loop_type": kind,
+                           "quality": q.summary(), "quality_score": q.flags.get("score"),
+                           "holds_released": released}
+    for m in methods:
+        if not q.usable:
+            out[m] = Call("unusable", q.summary())
+            continue
+        try:
+            out[m] = METHODS[m](rec, kind)
+        except Exception as exc:  # one method failing on odd data must not stop the rest
+            out[m] = Call("inconclusive", " ".join(str(exc).split())[:80])
+    return out
+
+
+def _as_call(c: Call | dict[str, Any]) -> Call:
+    return c if isinstance(c, Call) else Call(str(c["verdict"]), str(c.get("reason", "")),
+                                             c.get("value"))
+
+
+def binary(label: Any) -> str | None:
+    """``stiction`` / ``no_stiction`` of a dataset label (ISDB's dead zone, disturbance
+    and tuning labels are non-stiction); None when unlabelled."""
+    if label is None or (isinstance(label, float) and math.isnan(label)):
+        return None
+    return "stiction" if str(label) == "stiction" else "no_stiction"
+
+
+def loop_verdicts(windows: list[dict[str, Any]], methods: Iterable[str]) -> pd.DataFrame:
+    """One row per physical loop (windows hold a :class:`Call` or a ``{"verdict",
+    "reason"}`` dict per method): each method's majority over its decided windows
+    (a tie, or no decided window, is inconclusive — with the commonest reason)."""
+    rows = []
+    by: dict[str, list[dict[str, Any]]] = {}
+    for w in windows:
+        by.setdefault(w["group"], []).append(w)
+    for group, ws in by.items():
+        row: dict[str, Any] = {"loop": group, "label": binary(ws[0]["label"]),
+                               "loop_type": ws[0]["loop_type"], "windows": len(ws)}
+        for m in methods:
+            calls = [_as_call(w[m]) for w in ws]
+            votes = Counter(c.verdict for c in calls if c.verdict in VERDICTS[:2])
+            if votes["stiction"] > votes["no_stiction"]:
+                row[m] = "stiction"
+            elif votes["no_stiction"] > votes["stiction"]:
+                row[m] = "no_stiction"
+            elif all(c.verdict == "unusable" for c in calls):
+                row[m] = "unusable"
+            else:
+                row[m] = "inconclusive"
+            reasons = Counter(c.reason for c in calls if c.verdict == row[m]
+                              or row[m] == "inconclusive")
+            row[f"{m}_reason"] = reasons.most_common(1)[0][0] if reasons else ""
+        rows.append(row)
+    return pd.DataFrame(rows).sort_values("loop", kind="stable").reset_index(drop=True)
+
+
+def balanced_accuracy(labels: Iterable[str | None], verdicts: Iterable[str]) -> float:
+    """Mean of the recall on stiction loops and on non-stiction loops; a verdict other
+    than ``stiction`` counts as "not flagged". Unlabelled loops are left out.
+
+    Examples
+    --------
+    >>> balanced_accuracy(["stiction", "no_stiction"], ["stiction", "inconclusive"])
+    1.0
+    """
+    pairs = [(lab, v == "stiction") for lab, v in zip(labels, verdicts, strict=True)
+             if lab is not None]
+    rec = []
+    for cls, flag in (("stiction", True), ("no_stiction", False)):
+        hits = [f == flag for lab, f in pairs if lab == cls]
+        if hits:
+            rec.append(float(np.mean(hits)))
+    return float(np.mean(rec)) if rec else float("nan")
+
+
+def method_rates(loops: pd.DataFrame, methods: Iterable[str]) -> pd.DataFrame:
+    """Per method: correct / wrong / inconclusive loops (Wilson intervals), the
+    detection and false-alarm rates, and the balanced accuracy."""
+    rows = []
+    lab = loops["label"]
+    for m in methods:
+        v = loops[m]
+        decided = v.isin(VERDICTS[:2])
+        correct = decided & (v == lab)
+        n = int(lab.notna().sum())
+        st, ns = lab == "stiction", lab == "no_stiction"
+        det, fa = int((st & (v == "stiction")).sum()), int((ns & (v == "stiction")).sum())
+        rows.append({
+            "method": m,
+            "in_sample": m not in PUBLISHED,
+            "correct": rate_text(int(correct.sum()), n),
+            "wrong": rate_text(int((decided & (v != lab)).sum()), n),
+            "inconclusive": rate_text(int((~decided).sum()), n),
+            "detected": rate_text(det, int(st.sum())),
+            "false_alarms": rate_text(fa, int(ns.sum())),
+            "balanced_accuracy": balanced_accuracy(lab, v),
+            "correct_lo": wilson(int(correct.sum()), n)[0],
+            "correct_hi": wilson(int(correct.sum()), n)[1],
+        })
+    return pd.DataFrame(rows)

@@ -1,0 +1,600 @@
+"""Loaders for real loop data: ISDB MATLAB files, folders of CSV files, label tables.
+
+Three layouts are read in place (nothing is copied):
+
+- the International Stiction Data Base (ISDB) MATLAB struct ``cdata.<sector>.loopN``
+  with fields ``PV, OP, SP, Ts`` (and ``t``, ``Comments``, ``BriefComments``, ``Type``)
+  — :func:`load_isdb_mat`, one :class:`~stictionbench.recording.Recording` per loop;
+- the OP-only oscillation benchmark ``benchmark.<sector>.loopN`` with ``OP, Ts`` and an
+  ``oscillation`` flag — :func:`load_oscillation_benchmark`, one :class:`OscillationLoop`
+  per loop (there is no PV, so it is not a Recording);
+- a folder of ``t, [SP,] PV, OP`` CSV files with an optional ``labels.csv`` —
+  :func:`load_csv_dir` and :func:`read_labels`.
+
+:func:`read_any` reads one file of any supported format (``.csv``, ``.parquet``, ``.mat``).
+
+Loops are named as in the book: sector prefix and loop number (``chemicals.loop10`` →
+``CHEM10``), so that names match ``isdb/labels.csv``.
+
+References
+----------
+M. Jelali, B. Huang (eds.), *Detection and Diagnosis of Stiction in Control Loops: State
+of the Art and Advanced Methods*, Springer, London 2010 (the ISDB and its MATLAB layout).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import re
+import sys
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError
+from ..io import read_recording
+from ..recording import REQUIRED, Recording
+
+#: ISDB sector field -> loop-name prefix used in the book (Jelali & Huang 2010)
+SECTOR_PREFIX = {
+    "buildings": "BAS",
+    "chemicals": "CHEM",
+    "pulpPapers": "PAP",
+    "power": "POW",
+    "mining": "MIN",
+    "metals": "MET",
+    "test": "TEST",
+}
+
+#: fields of an ISDB loop that hold text
+_TEXT_FIELDS = ("Comments", "BriefComments", "comments", "Type", "type")
+#: names under which the OP-only benchmark stores its oscillation flag
+_FLAG_FIELDS = ("oscillation", "Oscillation", "Type")
+
+Skipped = list[tuple[str, str]]
+
+
+# --------------------------------------------------------------------------- types
+@dataclass(frozen=True, eq=False)
+class OscillationLoop:
+    """One loop of the OP-only oscillation benchmark.
+
+    Attributes
+    ----------
+    name : str
+        Book-style name, e.g. ``"CHEM10"``.
+    sector : str
+        Sector field of the MATLAB struct (``"chemicals"``, ...).
+    loop : str
+        Loop field (``"loop10"``).
+    Ts : float
+        Sample time in seconds.
+    op : ndarray
+        Controller output (read-only float array).
+    flag : int
+        ``1``: the loop oscillates, ``0``: it does not (the benchmark's ground truth).
+    flag_field : str
+        Field the flag was read from (``"oscillation"``; one loop of the published file
+        stores it as ``"Type"``).
+    """
+
+    name: str
+    sector: str
+    loop: str
+    Ts: float
+    op: np.ndarray
+    flag: int
+    flag_field: str = "oscillation"
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.op.size)
+
+    def as_recording(self, *, warn: bool = False) -> Recording:
+        """The OP as a :class:`Recording` with ``PV`` set to a copy of ``OP``.
+
+        ``meta["op_only"]`` is ``True`` so that PV-based checks know there is no PV.
+
+        Raises
+        ------
+        InputError
+            From :meth:`Recording.from_arrays` (e.g. fewer than 100 samples).
+        """
+        t = np.arange(self.op.size, dtype=float) * self.Ts
+        meta = {"name": self.name, "sector": self.sector, "loop": self.loop,
+                "oscillation": self.flag, "op_only": True, **dict(self.meta)}
+        return Recording.from_arrays(t, self.op, self.op, meta=meta,
+                                     source=str(self.meta.get("source", self.name)), warn=warn)
+
+
+# --------------------------------------------------------------------------- MATLAB
+def _loadmat(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """``scipy.io.loadmat`` with one-line errors."""
+    from scipy.io import loadmat
+
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"{p}: no such file")
+    if p.is_dir():
+        raise InputError(f"{p}: is a directory, expected a .mat file")
+    if p.stat().st_size == 0:
+        raise InputError(f"{p}: empty file")
+    try:
+        return loadmat(p, squeeze_me=True, struct_as_record=False)
+    except NotImplementedError:
+        raise InputError(
+            f"{p}: MATLAB v7.3 (HDF5) files are not supported; save with -v7 in MATLAB"
+        ) from None
+    except Exception as exc:  # scipy raises ValueError, TypeError, OSError... on bad files
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{p}: not a readable MATLAB file ({msg[:80]})") from None
+
+
+def _is_struct(v: Any) -> bool:
+    return hasattr(v, "_fieldnames")
+
+
+def _unwrap(v: Any) -> Any:
+    """A 1×1 struct array or object array → its element."""
+    if isinstance(v, np.ndarray) and v.dtype == object and v.size == 1:
+        return v.reshape(-1)[0]
+    return v
+
+
+def _fields(s: Any) -> list[str]:
+    return list(getattr(s, "_fieldnames", []) or [])
+
+
+def _loop_sort_key(name: str) -> tuple[str, int]:
+    m = re.match(r"(.*?)(\d+)$", name)
+    return (m.group(1), int(m.group(2))) if m else (name, -1)
+
+
+def _book_name(sector: str, loop: str) -> str:
+    prefix = SECTOR_PREFIX.get(sector, sector)
+    m = re.search(r"(\d+)$", loop)
+    return f"{prefix}{m.group(1)}" if m else f"{prefix}_{loop}"
+
+
+def _iter_loops(root: Any) -> Iterable[tuple[str, str, Any]]:
+    """Yield ``(sector, loop, struct)`` for every ``root.<sector>.<loop>``."""
+    for sector in _fields(root):
+        sec = _unwrap(getattr(root, sector))
+        if not _is_struct(sec):
+            continue
+        for loop in sorted(_fields(sec), key=_loop_sort_key):
+            ls = _unwrap(getattr(sec, loop))
+            if _is_struct(ls):
+                yield sector, loop, ls
+
+
+def _find_root(data: Mapping[str, Any], path: Path, var: str | None) -> tuple[str, Any]:
+    """The top-level struct holding sectors of loops; ``var`` names it explicitly."""
+    names = [k for k in data if not k.startswith("__")]
+    if var is not None:
+        if var not in data:
+            raise InputError(f"{path}: no variable {var!r}; found {', '.join(names) or 'none'}")
+        cand = [var]
+    else:
+        cand = names
+    for name in cand:
+        root = _unwrap(data[name])
+        if _is_struct(root) and any(True for _ in _iter_loops(root)):
+            return name, root
+    raise InputError(
+        f"{path}: no struct of the form <var>.<sector>.loopN found "
+        f"(variables: {', '.join(names) or 'none'})"
+    )
+
+
+def _array(v: Any) -> np.ndarray | None:
+    """A numeric field as a 1-D float array; ``None`` when empty or absent."""
+    if v is None:
+        return None
+    try:
+        a = np.asarray(v, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        return None
+    return a if a.size else None
+
+
+def _text(v: Any) -> str:
+    """A MATLAB char array / cell array of strings as one string."""
+    if v is None:
+        return ""
+    if isinstance(v, str):
+        return v.strip()
+    if isinstance(v, np.ndarray):
+        if v.dtype.kind in "US":
+            return " ".join(str(x).strip() for x in v.reshape(-1))
+        if v.dtype == object:
+            return " ".join(_text(x) for x in v.reshape(-1)).strip()
+        if v.size == 0:
+            return ""
+    if isinstance(v, (int, float, np.number)):
+        return str(v.item() if isinstance(v, np.generic) else v)
+    return str(v).strip()
+
+
+def _scalar(v: Any) -> float | None:
+    a = _array(v)
+    return float(a[0]) if a is not None and a.size == 1 and np.isfinite(a[0]) else None
+
+
+def scan_isdb_mat(
+    path: str | os.PathLike[str], *, var: str | None = None, warn: bool = True
+) -> tuple[dict[str, Recording], Skipped]:
+    """Read every loop of an ISDB-layout ``.mat`` file, collecting the loops that fail.
+
+    Like :func:`load_isdb_mat` but never raises for a single loop: loops without PV or
+    OP, without a sample time or rejected by :meth:`Recording.from_arrays` are returned
+    in ``skipped`` as ``(name, reason)``.
+
+    Returns
+    -------
+    recordings : dict
+        Book-style name (``"CHEM10"``) → Recording.
+    skipped : list of (str, str)
+    """
+    p = Path(path)
+    data = _loadmat(p)
+    varname, root = _find_root(data, p, var)
+    recs: dict[str, Recording] = {}
+    skipped: Skipped = []
+    for sector, loop, ls in _iter_loops(root):
+        name = _book_name(sector, loop)
+        where = f"{p}:{varname}.{sector}.{loop}"
+        fields = _fields(ls)
+        pv = _array(getattr(ls, "PV", None))
+        op = _array(getattr(ls, "OP", None))
+        if pv is None or op is None:
+            missing = [s for s, a in (("PV", pv), ("OP", op)) if a is None]
+            skipped.append((name, f"{where}: no {' or '.join(missing)} "
+                                  f"(fields: {', '.join(fields)})"))
+            continue
+        sp = _array(getattr(ls, "SP", None))
+        if sp is not None and sp.size != op.size:
+            sp = None
+        Ts = _scalar(getattr(ls, "Ts", None))
+        if Ts is None:
+            t_raw = _array(getattr(ls, "t", None))
+            if t_raw is not None and t_raw.size == op.size and t_raw.size > 1:
+                Ts = float(np.median(np.diff(t_raw)))
+        if Ts is None or not Ts > 0:
+            skipped.append((name, f"{where}: no valid sample time Ts"))
+            continue
+        # ISDB time vectors are missing or in other units for some loops: use k·Ts.
+        t = np.arange(op.size, dtype=float) * Ts
+        meta: dict[str, Any] = {"name": name, "sector": sector, "loop": loop,
+                                "dataset": "ISDB", "Ts_declared": Ts}
+        for f in _TEXT_FIELDS:
+            if f in fields:
+                meta[f.lower()] = _text(getattr(ls, f))
+        try:
+            recs[name] = Recording.from_arrays(t, pv, op, SP=sp, meta=meta, source=where,
+                                               first_row=0, warn=warn)
+        except InputError as exc:
+            skipped.append((name, str(exc)))
+    return recs, skipped
+
+
+def load_isdb_mat(
+    path: str | os.PathLike[str], *, var: str | None = None, errors: str = "raise",
+    warn: bool = True,
+) -> dict[str, Recording]:
+    """Load an ISDB-style MATLAB file ``<var>.<sector>.loopN`` as Recordings.
+
+    Each loop needs fields ``PV``, ``OP`` and ``Ts``; ``SP`` is kept when present and of
+    the same length, text fields (``Comments``, ``BriefComments``, ``Type``) go to
+    ``meta`` in lower case, with ``sector``, ``loop`` and the book-style ``name``. Time
+    is rebuilt as ``t = k·Ts``.
+
+    Parameters
+    ----------
+    path : path-like
+        A MATLAB v5/v7 ``.mat`` file (read with ``scipy.io.loadmat(squeeze_me=True,
+        struct_as_record=False)``).
+    var : str, optional
+        Top-level variable (``"cdata"`` in the ISDB); default: the first struct of
+        sectors of loops.
+    errors : {"raise", "skip"}
+        What to do with a loop that cannot be loaded: raise :class:`InputError`, or drop
+        it with a warning on stderr (use :func:`scan_isdb_mat` to get the reasons).
+    warn : bool
+        Print interpolation warnings of :meth:`Recording.from_arrays`.
+
+    Returns
+    -------
+    dict
+        Book-style name (``"CHEM10"``) → Recording, in file order.
+
+    Raises
+    ------
+    InputError
+        Unreadable or non-MATLAB file, MATLAB v7.3, no struct of loops, an OP-only file
+        (see :func:`load_oscillation_benchmark`), or — with ``errors="raise"`` — a bad loop.
+
+    References
+    ----------
+    M. Jelali, B. Huang (eds.), *Detection and Diagnosis of Stiction in Control Loops*,
+    Springer 2010, chapter 13 and appendix (the ISDB).
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.io, tempfile, os
+    >>> k = np.arange(200.0)
+    >>> loop = {"PV": np.sin(k / 9), "OP": np.cos(k / 9), "SP": 0 * k, "Ts": 2.0,
+    ...         "Comments": "flow loop"}
+    >>> f = os.path.join(tempfile.mkdtemp(), "isdb.mat")
+    >>> scipy.io.savemat(f, {"cdata": {"chemicals": {"loop1": loop}}})
+    >>> recs = load_isdb_mat(f)
+    >>> list(recs), recs["CHEM1"].Ts, recs["CHEM1"].meta["comments"]
+    (['CHEM1'], 2.0, 'flow loop')
+    """
+    if errors not in ("raise", "skip"):
+        raise InputError(f"errors={errors!r}: use 'raise' or 'skip'")
+    recs, skipped = scan_isdb_mat(path, var=var, warn=warn)
+    if skipped and not recs and all(" no PV" in r for _, r in skipped):
+        raise InputError(f"{path}: loops have OP but no PV; this looks like the OP-only "
+                         f"oscillation benchmark — use load_oscillation_benchmark")
+    if skipped:
+        if errors == "raise":
+            raise InputError(skipped[0][1])
+        for _, reason in skipped:
+            print(f"stictionbench: warning: skipped {reason}", file=sys.stderr)
+    return recs
+
+
+def load_oscillation_benchmark(
+    path: str | os.PathLike[str], *, var: str | None = None
+) -> list[OscillationLoop]:
+    """Load the OP-only oscillation benchmark ``benchmark.<sector>.loopN``.
+
+    Every loop has ``OP``, ``Ts`` and an oscillation flag (``oscillation``; one loop
+    of the published file, ``chemicals.loop16``, names it ``Type``).
+
+    Parameters
+    ----------
+    path : path-like
+        MATLAB v5/v7 file.
+    var : str, optional
+        Top-level variable (``"benchmark"``); default: the first struct of loops.
+
+    Returns
+    -------
+    list of OscillationLoop
+        In file order (sector, then loop number).
+
+    Raises
+    ------
+    InputError
+        Unreadable file, no struct of loops, or a loop without ``OP``, ``Ts`` or flag.
+
+    References
+    ----------
+    M. Jelali, B. Huang (eds.), *Detection and Diagnosis of Stiction in Control Loops*,
+    Springer 2010 (the 93 loops of the book; OP and oscillation labels).
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.io, tempfile, os
+    >>> f = os.path.join(tempfile.mkdtemp(), "bench.mat")
+    >>> op = np.sin(np.arange(300) / 5)
+    >>> scipy.io.savemat(f, {"benchmark": {"power": {"loop1": {"OP": op, "Ts": 5,
+    ...                                                        "oscillation": 1}}}})
+    >>> [(lp.name, lp.Ts, lp.flag, len(lp)) for lp in load_oscillation_benchmark(f)]
+    [('POW1', 5.0, 1, 300)]
+    """
+    p = Path(path)
+    data = _loadmat(p)
+    varname, root = _find_root(data, p, var)
+    out: list[OscillationLoop] = []
+    for sector, loop, ls in _iter_loops(root):
+        name = _book_name(sector, loop)
+        where = f"{p}:{varname}.{sector}.{loop}"
+        fields = _fields(ls)
+        op = _array(getattr(ls, "OP", None))
+        if op is None:
+            raise InputError(f"{where}: no OP (fields: {', '.join(fields)})")
+        Ts = _scalar(getattr(ls, "Ts", None))
+        if Ts is None or not Ts > 0:
+            raise InputError(f"{where}: no valid sample time Ts")
+        flag_field = next((f for f in _FLAG_FIELDS if f in fields), None)
+        flag = None if flag_field is None else _scalar(getattr(ls, flag_field))
+        if flag is None or flag not in (0.0, 1.0):
+            raise InputError(f"{where}: no 0/1 oscillation flag (fields: {', '.join(fields)})")
+        op = op.copy()
+        op.setflags(write=False)
+        out.append(OscillationLoop(name=name, sector=sector, loop=loop, Ts=Ts, op=op,
+                                   flag=int(flag), flag_field=flag_field,
+                                   meta=MappingProxyType({"source": where})))
+    return out
+
+
+def is_oscillation_benchmark(path: str | os.PathLike[str]) -> bool:
+    """True when a ``.mat`` file's loops have ``OP`` but no ``PV`` (the OP-only layout)."""
+    p = Path(path)
+    data = _loadmat(p)
+    _, root = _find_root(data, p, None)
+    loops = [ls for _, _, ls in _iter_loops(root)]
+    return bool(loops) and all("PV" not in _fields(ls) and "OP" in _fields(ls)
+                               for ls in loops)
+
+
+# --------------------------------------------------------------------------- CSV
+def read_labels(path: str | os.PathLike[str]) -> pd.DataFrame:
+    """Read a labels table keyed by ``loop``.
+
+    Parameters
+    ----------
+    path : path-like
+        CSV with a ``loop`` column (``isdb/labels.csv``, ``plant/labels.csv``).
+
+    Returns
+    -------
+    DataFrame
+        Indexed by ``loop`` (as str); column ``group`` is the physical loop when the
+        table has one (windows of one group are not independent), else equal to ``loop``.
+
+    Raises
+    ------
+    InputError
+        Missing or unreadable file, no ``loop`` column, duplicate loops.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{p}: no such file")
+    try:
+        df = pd.read_csv(p, dtype={"loop": str, "group": str})
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{p}: not a readable labels CSV ({msg[:80]})") from None
+    df.columns = [str(c).strip() for c in df.columns]
+    if "loop" not in df.columns:
+        raise InputError(f"{p}: labels need a 'loop' column; found {', '.join(df.columns)}")
+    df["loop"] = df["loop"].astype(str).str.strip()
+    dup = df["loop"][df["loop"].duplicated()]
+    if not dup.empty:
+        raise InputError(f"{p}: loop {dup.iloc[0]!r} appears more than once")
+    if "group" not in df.columns:
+        df["group"] = df["loop"]
+    else:
+        df["group"] = df["group"].fillna(df["loop"]).astype(str)
+    return df.set_index("loop", drop=False).rename_axis(None)
+
+
+def _csv_columns(p: Path) -> list[str] | None:
+    """Header of a CSV file, or None when it cannot be read as text."""
+    try:
+        head = pd.read_csv(p, nrows=0)
+    except Exception:  # let read_recording produce the precise message
+        return None
+    return [str(c).strip() for c in head.columns]
+
+
+def _with_meta(rec: Recording, extra: Mapping[str, Any]) -> Recording:
+    """The same Recording with ``extra`` merged into its metadata (no re-validation)."""
+    md = dict(rec.meta)
+    md.update(extra)
+    return dataclasses.replace(rec, meta=MappingProxyType(md))
+
+
+def _label_meta(labels: pd.DataFrame | None, name: str) -> dict[str, Any]:
+    if labels is None or name not in labels.index:
+        return {}
+    row = labels.loc[name]
+    out: dict[str, Any] = {}
+    for k, v in row.items():
+        if isinstance(v, float) and np.isnan(v):
+            continue
+        out[str(k)] = v.item() if isinstance(v, np.generic) else v
+    out.pop("loop", None)
+    return {"labels": out, "label": out.get("label"), "group": out.get("group", name)}
+
+
+def load_csv_dir(
+    directory: str | os.PathLike[str],
+    labels: str | os.PathLike[str] | pd.DataFrame | bool | None = None,
+    *,
+    warn: bool = True,
+) -> tuple[dict[str, Recording], Skipped]:
+    """Load every ``*.csv`` recording in a folder.
+
+    Files without the columns ``t, PV, OP`` (label tables, indexes) are skipped with a
+    note, as are recordings that :meth:`Recording.from_arrays` rejects (the reason is its
+    one-line message).
+
+    Parameters
+    ----------
+    directory : path-like
+        Folder of CSV files (not searched recursively).
+    labels : path, DataFrame, bool or None
+        Labels table (see :func:`read_labels`). ``None`` (default): use
+        ``directory/labels.csv`` when it exists; ``False``: no labels. A matching row
+        goes into ``meta["labels"]`` (all columns), ``meta["label"]`` and
+        ``meta["group"]`` (the file stem when the table has no group or no row).
+    warn : bool
+        Print interpolation warnings on stderr.
+
+    Returns
+    -------
+    recordings : dict
+        File stem → Recording (``meta["name"]`` is the stem), sorted by name.
+    skipped : list of (str, str)
+        ``(file name, reason)`` for every CSV that is not loaded.
+
+    Raises
+    ------
+    InputError
+        When ``directory`` is not a folder or the labels table is unreadable.
+    """
+    d = Path(directory)
+    if not d.is_dir():
+        raise InputError(f"{d}: not a directory")
+    table: pd.DataFrame | None
+    if labels is None:
+        table = read_labels(d / "labels.csv") if (d / "labels.csv").is_file() else None
+    elif labels is False:
+        table = None
+    elif isinstance(labels, pd.DataFrame):
+        table = labels
+    elif labels is True:
+        table = read_labels(d / "labels.csv")
+    else:
+        table = read_labels(labels)
+    recs: dict[str, Recording] = {}
+    skipped: Skipped = []
+    for f in sorted(d.glob("*.csv")):
+        cols = _csv_columns(f)
+        if cols is not None:
+            missing = [c for c in REQUIRED if c not in cols]
+            if missing:
+                what = "labels table" if "loop" in cols else "table"
+                skipped.append((f.name, f"not a recording ({what} without column(s) "
+                                        f"{', '.join(missing)})"))
+                continue
+        try:
+            rec = read_recording(f, warn=warn)
+        except InputError as exc:
+            skipped.append((f.name, str(exc)))
+            continue
+        name = f.stem
+        recs[name] = _with_meta(rec, {"name": name, "group": name,
+                                      **_label_meta(table, name)})
+    return recs, skipped
+
+
+# --------------------------------------------------------------------------- any file
+def read_any(path: str | os.PathLike[str], *, warn: bool = True) -> dict[str, Recording]:
+    """Read one file of any supported format as ``name → Recording``.
+
+    ``.mat`` files go to :func:`load_isdb_mat` (loops that fail are skipped with a
+    warning), or — when their loops have OP but no PV — to
+    :func:`load_oscillation_benchmark`, whose loops become Recordings with ``PV = OP``
+    and ``meta["op_only"] = True``. Every other file goes to
+    :func:`stictionbench.io.read_recording` and is named by its stem.
+
+    Raises
+    ------
+    InputError
+        From the reader used.
+    """
+    p = Path(path)
+    if p.suffix.lower() == ".mat":
+        if is_oscillation_benchmark(p):
+            out: dict[str, Recording] = {}
+            for lp in load_oscillation_benchmark(p):
+                try:
+                    out[lp.name] = lp.as_recording(warn=warn)
+                except InputError as exc:
+                    print(f"stictionbench: warning: skipped {lp.name}: {exc}", file=sys.stderr)
+            return out
+        return load_isdb_mat(p, errors="skip", warn=warn)
+    rec = read_recording(p, warn=warn)
+    return {p.stem: _with_meta(rec, {"name": p.stem})}

@@ -1,0 +1,116 @@
+"""The detectors compared loop by loop, and the consensus fitted on one dataset."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import stictionbench as sb
+from stictionbench.cli import main
+from stictionbench.io import write_recording
+from stictionbench.realdata.compare import Call, balanced_accuracy, loop_verdicts
+from stictionbench.realdata.consensus import Consensus, cross_dataset, fit, lolo
+
+
+def _loops(verdicts: dict[str, list[str]], labels: list[str]) -> pd.DataFrame:
+    df = pd.DataFrame({"loop": [f"L{i}" for i in range(len(labels))], "label": labels})
+    for m, v in verdicts.items():
+        df[m] = v
+    return df
+
+
+def test_loop_majority_and_ties():
+    w = [{"name": f"w{i}", "group": "A", "label": "stiction", "loop_type": "F",
+          "m": Call(v, "r")} for i, v in enumerate(["stiction", "stiction", "no_stiction"])]
+    w += [{"name": "x", "group": "B", "label": "no_stiction", "loop_type": "L",
+           "m": Call("stiction", "r")},
+          {"name": "y", "group": "B", "label": "no_stiction", "loop_type": "L",
+           "m": {"verdict": "no_stiction", "reason": "r"}}]
+    lv = loop_verdicts(w, ["m"]).set_index("loop")
+    assert lv.loc["A", "m"] == "stiction" and lv.loc["A", "windows"] == 3
+    assert lv.loc["B", "m"] == "inconclusive"  # one window each way
+
+
+def test_consensus_fit_prefers_the_informative_method():
+    labels = ["stiction"] * 4 + ["no_stiction"] * 4
+    good = ["stiction"] * 4 + ["no_stiction"] * 4
+    noise = ["stiction", "no_stiction"] * 4
+    loops = _loops({"good": good, "noise": noise, "mute": ["inconclusive"] * 8}, labels)
+    c = fit(loops, ("good", "noise", "mute"))
+    assert "good" in c.methods
+    assert balanced_accuracy(loops["label"], c.apply(loops)) == 1.0
+    v = lolo(loops, ("good", "noise", "mute"))
+    assert balanced_accuracy(loops["label"], v) == 1.0
+
+
+def test_consensus_needs_votes_and_says_why():
+    c = Consensus(("a", "b"), threshold=0.5, min_votes=2)
+    assert c.decide({"a": "stiction", "b": "inconclusive"})[0] == "inconclusive"
+    assert c.decide({"a": "stiction", "b": "no_stiction"}) == (
+        "stiction", "1 of 2 deciding methods say stiction (a)")
+
+
+def test_cross_dataset_marks_in_sample_rows():
+    labels = ["stiction", "no_stiction"] * 3
+    a = _loops({"m": labels, "n": ["stiction"] * 6}, labels)
+    b = _loops({"m": labels[::-1], "n": ["stiction"] * 6}, labels)
+    cross = cross_dataset({"a": a, "b": b}, ("m", "n"))
+    ab = cross[(cross.trained_on == "a") & (cross.scored_on == "b")].iloc[0]
+    assert bool(ab.out_of_sample) and ab.balanced_accuracy == 0.0  # m flips between sets
+    aa = cross[(cross.trained_on == "a") & (cross.scored_on == "a")].iloc[0]
+    assert not bool(aa.out_of_sample) and aa.balanced_accuracy == 1.0
+
+
+def test_shipped_consensus_loads():
+    c = Consensus.load()
+    assert c.methods and 0 < c.threshold <= 1 and c.min_votes >= 1
+
+
+@pytest.fixture(scope="module")
+def folders(tmp_path_factory):
+    root = tmp_path_factory.mktemp("cmp")
+    cases = {"st": ("stiction", "stiction"), "li": ("tight", "no_stiction")}
+    out = []
+    for k in ("one", "two"):
+        d = root / k
+        d.mkdir()
+        rows = []
+        for i, (name, (case, label)) in enumerate(cases.items()):
+            rec = sb.simulate(case, seed=i + (k == "two"), duration=2000, sample_time=1.0,
+                              sensor="noisy")
+            write_recording(sb.Recording.from_arrays(rec.t, rec.PV, rec.OP, SP=rec.SP),
+                            d / f"{name}.csv")
+            rows.append(f"{name},{label},F")
+        (d / "labels.csv").write_text("loop,label,loop_type\n" + "\n".join(rows) + "\n")
+        out.append(d)
+    return out
+
+
+def test_compare_cli(folders, tmp_path, capsys):
+    out, cons = tmp_path / "rep", tmp_path / "c.yaml"
+    assert main(["compare", *map(str, folders), "--out", str(out), "--consensus", str(cons),
+                 "--jobs", "1"]) == 0
+    md = (out / "comparison.md").read_text()
+    assert "method × loop" in md and "out of sample" in md
+    cross = pd.read_csv(out / "cross_dataset.csv")
+    assert {"trained_on", "scored_on", "out_of_sample", "balanced_accuracy"} <= set(cross)
+    assert (out / "comparison.png").stat().st_size > 5000
+    assert Consensus.load(cons).methods
+    assert "scored on" in capsys.readouterr().out
+    # the trained consensus drives batch
+    j = tmp_path / "b.json"
+    assert main(["batch", str(folders[0]), "--labels", str(folders[0] / "labels.csv"),
+                 "--json", str(j), "--consensus", str(cons), "--jobs", "1"]) == 0
+    res = json.loads(j.read_text())
+    assert {r["verdict"] for r in res["recordings"]} <= {"stiction", "no_stiction", "unusable"}
+    assert np.isfinite(res["scores"]["balanced_accuracy_logo"])
+
+
+def test_compare_refuses_unlabelled_folder(tmp_path, capsys):
+    (tmp_path / "d").mkdir()
+    assert main(["compare", str(tmp_path / "d"), "--out", str(tmp_path / "o")]) == 2
+    assert "labels.csv" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

@@ -1,0 +1,275 @@
+"""Published stiction detectors (horch, he, area_ratio, kano, yamashita) on loops with
+known answers: simulated stiction / disturbance / linear loops and hand-made waves."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import signal as sps
+
+from stictionbench.errors import InputError
+from stictionbench.estimators import available, make
+from stictionbench.estimators.area_ratio import area_ratios
+from stictionbench.estimators.detector import half_cycles, setpoint_changes, three_way
+from stictionbench.estimators.he import fit_sinusoid, fit_triangle
+from stictionbench.estimators.horch import cross_correlation, zero_lag_phase
+from stictionbench.estimators.kano import sticky_sections
+from stictionbench.recording import Recording
+from stictionbench.sim.compose import simulate
+
+N = 3000
+PERIOD = 100.0
+#: a detector's verdicts that are not a (false) stiction call
+NOT_STICTION = ("no_stiction", "inconclusive")
+
+
+@pytest.fixture(scope="module")
+def sims() -> dict[str, Recording]:
+    """2000 s records, 1 s samples: the four cases with the servo set point (ideal
+    sensor), and the linear and disturbance loops in regulatory mode (constant set
+    point, noisy sensor) where the published methods apply as written."""
+    out = {c: simulate(c, duration=2000, seed=0, sample_time=1.0)
+           for c in ("linear", "tight", "disturbance", "stiction")}
+    for c in ("linear", "disturbance"):
+        out[c + "_regulatory"] = simulate(c, duration=2000, seed=0, sample_time=1.0,
+                                          setpoint="constant", sensor="noisy")
+    return out
+
+
+def _rec(pv: np.ndarray, op: np.ndarray, mv: np.ndarray | None = None,
+         sp: np.ndarray | None = None) -> Recording:
+    return Recording.from_arrays(np.arange(pv.size, dtype=float), pv, op, SP=sp, MV=mv,
+                                 warn=False)
+
+
+def _phase(n: int = N) -> np.ndarray:
+    return 2 * np.pi * np.arange(n) / PERIOD
+
+
+def _stiction_waves(seed: int = 0) -> Recording:
+    """Self-regulating stiction picture: MV a square wave (the valve stuck between
+    jumps), PV its first-order response (time constant 2 samples), OP the integral of
+    the error ``−(PV − 50)`` (a triangle: OP ramps while MV stays put)."""
+    rng = np.random.default_rng(seed)
+    mv = 50 + 10 * sps.square(_phase())
+    a = math.exp(-1 / 2)
+    pv = 50 + 0.5 * sps.lfilter([1 - a], [1, -a], mv - 50) + 0.02 * rng.standard_normal(N)
+    op = 50 - 0.02 * np.cumsum(pv - 50)
+    return _rec(pv, op, mv)
+
+
+def _sine_waves(seed: int = 0, lag: float = 0.05) -> Recording:
+    """Linear picture: sinusoidal PV, OP in anti-phase (disturbance rejected by a
+    proportional-dominant controller), MV following OP after a short lag."""
+    rng = np.random.default_rng(seed)
+    ph = _phase()
+    pv = 50 + 5 * np.sin(ph) + 0.05 * rng.standard_normal(N)
+    op = 50 - 10 * np.sin(ph)
+    mv = 50 - 10 * np.sin(ph - lag)
+    return _rec(pv, op, mv)
+
+
+def _white(seed: int = 0) -> Recording:
+    rng = np.random.default_rng(seed)
+    return _rec(50 + rng.standard_normal(N), 50 + rng.standard_normal(N),
+                50 + rng.standard_normal(N))
+
+
+# --------------------------------------------------------------------------- shared
+def test_three_way_rule_and_half_cycles():
+    assert three_way(0.6, 0.4, 0.6) is True and three_way(0.4, 0.4, 0.6) is False
+    assert three_way(float("nan"), 0.4, 0.6) is None
+    cycles = half_cycles(np.sin(_phase(1000) + 0.3), PERIOD)
+    assert len(cycles) == 19
+    assert all(abs((z1 - z0) - PERIOD / 2) < 0.1 for z0, _, _, z1 in cycles)
+
+
+# --------------------------------------------------------------------------- horch
+def test_ccf_phase_of_shifted_sinusoids():
+    ph = _phase()
+    lags, r = cross_correlation(np.sin(ph), np.sin(ph + np.pi / 2), 120)
+    dphi, tau_l, tau_r = zero_lag_phase(lags, r)
+    assert dphi == pytest.approx(np.pi, abs=0.05)        # quarter period: odd
+    lags, r = cross_correlation(np.sin(ph), -np.sin(ph), 120)
+    dphi, tau_l, tau_r = zero_lag_phase(lags, r)
+    assert dphi == pytest.approx(0.0, abs=0.05)          # anti-phase: even
+    assert tau_l == pytest.approx(-PERIOD / 4, abs=0.5) and tau_r == pytest.approx(25, abs=0.5)
+
+
+def test_horch_hand_made_waves():
+    res = make("horch").estimate(_stiction_waves())
+    assert res.decision is True and res.diagnostics["verdict"] == "stiction"
+    assert res.value > 150 and res.diagnostics["zero_lag_ratio"] < 0.3
+    res = make("horch").estimate(_sine_waves())
+    assert res.decision is False and res.diagnostics["reason"] == "even CCF"
+    assert res.value < 10 and res.diagnostics["zero_lag_ratio"] > 0.95
+
+
+def test_horch_simulated_loops(sims):
+    res = make("horch").estimate(sims["stiction"])
+    assert res.decision is True and res.units == "deg"
+    for case in ("linear", "tight", "disturbance_regulatory"):
+        assert make("horch").estimate(sims[case]).diagnostics["verdict"] in NOT_STICTION
+
+
+def test_horch_inconclusive_cases():
+    res = make("horch").estimate(_white())
+    assert res.decision is None and res.diagnostics["reason"] == "no oscillation"
+    assert math.isnan(res.value)
+    res = make("horch", integrating=True).estimate(_stiction_waves())
+    assert res.decision is None and res.diagnostics["reason"] == "integrating loop"
+
+
+# --------------------------------------------------------------------------- he
+def test_triangle_and_sinusoid_fits():
+    t = np.arange(60.0)
+    tri = np.minimum(t, 59 - t)   # apex at 29.5, between samples
+    assert fit_triangle(tri) == pytest.approx(0.0, abs=1e-9)
+    assert fit_sinusoid(tri) > 1.0
+    sine = 4 * np.sin(np.pi * (t + 0.5) / 60)
+    assert fit_sinusoid(sine) == pytest.approx(0.0, abs=1e-9)
+    assert fit_triangle(sine) > 0.1
+
+
+def test_he_hand_made_waves():
+    res = make("he").estimate(_stiction_waves())
+    assert res.decision is True and res.value > 0.6
+    assert res.diagnostics["fitted"] == "OP" and res.diagnostics["n_half_cycles"] >= 50
+    res = make("he").estimate(_sine_waves())
+    assert res.decision is False and res.value < 0.4
+    # integrating loop (a level): a stuck valve makes PV, not OP, the triangle
+    ph = _phase()
+    level = _rec(50 + 5 * sps.sawtooth(ph, 0.5), 50 + 10 * sps.square(ph - np.pi / 2))
+    res = make("he", integrating=True).estimate(level)
+    assert res.diagnostics["fitted"] == "PV" and res.decision is True
+    level = _rec(50 + 5 * np.sin(ph), 50 + 10 * np.cos(ph))
+    assert make("he", integrating=True).estimate(level).decision is False
+
+
+def test_he_simulated_loops(sims):
+    res = make("he").estimate(sims["stiction"])
+    assert res.decision is True and res.diagnostics["reason"] == "triangular"
+    for case in ("tight", "disturbance", "disturbance_regulatory"):
+        assert make("he").estimate(sims[case]).decision is False, case
+    res = make("he").estimate(sims["linear_regulatory"])
+    assert res.decision is None and res.diagnostics["reason"] == "no oscillation"
+
+
+def test_he_too_short():
+    res = make("he", min_half_cycles=1000).estimate(_stiction_waves())
+    assert res.decision is None and res.diagnostics["reason"] == "too short"
+
+
+# --------------------------------------------------------------------------- area ratio
+def test_area_ratio_of_shapes():
+    n = np.arange(2000)
+    assert np.allclose(area_ratios(np.sin(2 * np.pi * n / 80 + 0.2), 80.0), 1.0, atol=0.01)
+    late = sps.lfilter([1 / 8], [1, -7 / 8], sps.square(2 * np.pi * n / 100))
+    assert np.median(area_ratios(late, 100.0)) > 2.0
+
+
+def test_area_ratio_hand_made_waves():
+    res = make("area_ratio").estimate(_stiction_waves())
+    assert res.decision is True and res.value > 2.0
+    res = make("area_ratio").estimate(_sine_waves())
+    assert res.diagnostics["verdict"] in NOT_STICTION and abs(res.value - 1) < 0.1
+
+
+def test_area_ratio_simulated_loops(sims):
+    assert make("area_ratio").estimate(sims["stiction"]).decision is True
+    res = make("area_ratio").estimate(sims["disturbance_regulatory"])
+    assert res.diagnostics["verdict"] in NOT_STICTION and abs(res.value - 1) < 0.1
+    res = make("area_ratio").estimate(sims["linear_regulatory"])
+    assert res.decision is None and res.diagnostics["reason"] == "no oscillation"
+
+
+def test_setpoint_changes_leave_half_cycles_out():
+    rec = _stiction_waves()
+    sp = np.full(N, 50.0)
+    sp[N // 2:] = 51.0
+    rec2 = _rec(np.asarray(rec.PV), np.asarray(rec.OP), sp=sp)
+    assert setpoint_changes(rec2).tolist() == [N // 2]
+    n1 = make("he").estimate(rec).diagnostics["n_half_cycles"]
+    n2 = make("he", use_error=False).estimate(rec2).diagnostics["n_half_cycles"]
+    assert n2 == n1 - 1
+
+
+# --------------------------------------------------------------------------- kano
+def test_sticky_sections_find_the_stuck_stretches():
+    op = 50 - 10 * sps.sawtooth(_phase(400), 0.5)
+    mv = np.repeat([50.0, 40.0, 60.0, 40.0, 60.0], [25, 50, 50, 50, 225])[:400]
+    sections, sticky = sticky_sections(op, mv, 0.25, 1.0)
+    assert sections.tolist() == [[0, 25], [25, 75], [75, 125], [125, 175], [175, 400]]
+    assert sticky.all()
+    sections, sticky = sticky_sections(op, op, 0.25, 1.0)   # a valve that tracks OP
+    assert not sticky.any()
+
+
+def test_kano_and_yamashita_hand_made_waves():
+    for name in ("kano", "yamashita"):
+        res = make(name).estimate(_stiction_waves())
+        assert res.decision is True and res.value > 0.9, name
+        res = make(name).estimate(_sine_waves())
+        assert res.decision is False and res.value < 0.1, name
+
+
+@pytest.mark.parametrize("name", ["kano", "yamashita"])
+def test_mv_methods_simulated_loops(name, sims):
+    assert make(name).estimate(sims["stiction"]).decision is True
+    # ideal valve (MV = OP): nothing sticks
+    ideal = simulate("disturbance", duration=1000, seed=0, sample_time=1.0, valve="linear")
+    res = make(name).estimate(ideal)
+    assert res.decision is False and res.value == 0.0
+    # regulatory loop at rest: OP moves less than a good valve's dead band
+    res = make(name).estimate(sims["linear_regulatory"])
+    assert res.decision is None and res.diagnostics["reason"] == "OP constant"
+
+
+def test_mv_missing():
+    rec = _stiction_waves()
+    no_mv = _rec(np.asarray(rec.PV), np.asarray(rec.OP))
+    res = make("kano").estimate(no_mv)
+    assert res.decision is None and res.diagnostics["reason"] == "MV not recorded"
+    res = make("yamashita").estimate(no_mv)
+    assert res.decision is None and res.diagnostics["reason"] == "not a flow loop"
+    # a flow loop: PV (the flow) stands in for MV
+    flow = _rec(np.asarray(rec.MV) + 0.01 * np.sin(np.arange(N)), np.asarray(rec.OP))
+    res = make("yamashita", flow_loop=True).estimate(flow)
+    assert res.diagnostics["valve"] == "PV" and res.decision is True
+    with pytest.raises(InputError, match="MV is not recorded"):
+        make("horch").estimate(no_mv, y="MV")
+
+
+def test_yamashita_pattern_times_add_up():
+    rec = _stiction_waves()
+    res = make("yamashita").estimate(rec)
+    times = [v for k, v in res.diagnostics.items() if k.startswith("time_")]
+    assert len(times) == 9 and sum(times) == N - 1
+
+
+# --------------------------------------------------------------------------- all
+@pytest.mark.parametrize("name, key, bad", [
+    ("horch", "odd_threshold", 4.0), ("horch", "integrating", "no"),
+    ("he", "low", 1.5), ("he", "min_half_cycles", 0), ("area_ratio", "margin", -0.1),
+    ("area_ratio", "use_error", 1), ("kano", "mv_tolerance", 0), ("kano", "threshold", 2),
+    ("yamashita", "flow_loop", "yes"), ("yamashita", "tolerance", -1.0),
+])
+def test_bad_parameters_raise(name, key, bad):
+    with pytest.raises(InputError, match=f"parameter {key} must be"):
+        make(name, **{key: bad})
+
+
+def test_inverted_band_raises():
+    with pytest.raises(InputError, match="low=0.7 must not exceed high=0.6"):
+        make("he", low=0.7).estimate(_sine_waves())
+    with pytest.raises(InputError, match="even_threshold"):
+        make("horch", even_threshold=3.0).estimate(_sine_waves())
+
+
+@pytest.mark.parametrize("name", ["horch", "he", "area_ratio", "kano", "yamashita"])
+def test_registered_and_declared(name):
+    assert name in available()
+    est = make(name)
+    assert set(est._parameter_constraints) == set(est.param_names())
