@@ -23,14 +23,14 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
 from ..recording import Recording
-from .evidence import Verdict
+from .evidence import ALPHA, MIN_IMPROVEMENT, Verdict
 from .evidence import validate as _validate
 from .fit import Fit, Problem, fit_at, fit_hypothesis
 from .hammerstein import HammersteinResult, fit_hammerstein
@@ -152,8 +152,7 @@ def _fit_aligned(cmp_prob: Problem, h, shifts: list[float]) -> Fit:
     ctx = cmp_prob.ctx
     best: Fit | None = None
     for shift in shifts if h.name != "dead_time" else (0.0,):
-        ctx_s = Context(ctx.t, ctx.op, ctx.pv, ctx.Ts, ctx.tau, ctx.theta + shift, ctx.f_hp,
-                        ctx.resid_periods)
+        ctx_s = replace(ctx, theta=ctx.theta + shift)
         ft = fit_hypothesis(Problem(ctx_s, cmp_prob.f_hp, cmp_prob.train, cmp_prob.val,
                                     cmp_prob.f_lp), h)
         ft.extra = {**ft.extra, "timing_shift_s": shift}
@@ -202,8 +201,7 @@ def locate(cmp: Comparison) -> Location:
     """Stage 2: the nominal residual over the whole record after the burn-in, high-passed
     only (the white measurement noise sets the floor it is compared with)."""
     ctx, burn, Ts = cmp.ctx, cmp.burn, cmp.ctx.Ts
-    ctx0 = Context(ctx.t, ctx.op, ctx.pv, Ts, ctx.tau,
-                   ctx.theta + cmp.nominal.extra.get("timing_shift_s", 0.0), ctx.f_hp)
+    ctx0 = replace(ctx, theta=ctx.theta + cmp.nominal.extra.get("timing_shift_s", 0.0))
     X0 = highpass(Nominal().regressors(ctx0, np.zeros(0)), Ts, ctx.f_hp)
     r = highpass(ctx.pv, Ts, ctx.f_hp) - X0 @ cmp.nominal.beta
     sigma = noise_floor(r[burn:])
@@ -240,8 +238,7 @@ def _valve_fits(cmp: Comparison, names: tuple[str, ...], alpha: float,
     theta = max(m.dead_time + cmp.nominal.extra.get("timing_shift_s", 0.0), 0.0)
     h = fit_hammerstein(cmp.rec, alpha=alpha, linear=(m.gain, m.time_constant, theta),
                         fix_process=not free)
-    ctx_h = Context(c.t, c.op, c.pv, c.Ts, h.process["time_constant"],
-                    h.process["dead_time"], c.f_hp, c.resid_periods)
+    ctx_h = replace(c, tau=h.process["time_constant"], theta=h.process["dead_time"])
     prob_h = Problem(ctx_h, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val, cmp.prob.f_lp)
     extra = {"time_constant": ctx_h.tau, "dead_time": ctx_h.theta} if free else {}
     if "stiction" in names:
@@ -259,7 +256,7 @@ def _valve_fits(cmp: Comparison, names: tuple[str, ...], alpha: float,
     return h
 
 
-def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = 0.01) -> tuple[
+def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA) -> tuple[
         dict[str, Fit], HammersteinResult | None]:
     """Stage 4: every candidate fitted on the training blocks; validation NRMSE (the
     simulation error users understand) on the validation blocks."""
@@ -277,17 +274,17 @@ def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = 0.01) -> tupl
     return fits, h
 
 
-def validate(cmp: Comparison, fits: dict[str, Fit], *, alpha: float = 0.01,
-             min_improvement: float = 0.05) -> Verdict:
+def validate(cmp: Comparison, fits: dict[str, Fit], *, alpha: float = ALPHA,
+             min_improvement: float = MIN_IMPROVEMENT) -> Verdict:
     """Stage 5: prediction-error evidence (:func:`.evidence.validate`)."""
     c = cmp.ctx
     return _validate(fits, c.pv, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val,
                      alpha=alpha, min_improvement=min_improvement)
 
 
-def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = 0.01,
-             min_improvement: float = 0.05, hp_factor: float = 0.3, lp_factor: float = 5.0,
-             hypotheses: tuple[str, ...] | None = None) -> Diagnosis:
+def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
+             min_improvement: float = MIN_IMPROVEMENT, hp_factor: float = 0.3,
+             lp_factor: float = 5.0, hypotheses: tuple[str, ...] | None = None) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -298,9 +295,11 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     model : NominalModel, optional
         The user's nominal model; identified from the recording when ``None``.
     alpha : float
-        Level of the likelihood-ratio tests (against the nominal model; of ``J = 0``).
+        Level of the likelihood-ratio tests (against the nominal model; of ``J = 0``);
+        default :data:`.evidence.ALPHA` (see its provenance).
     min_improvement : float
-        Smallest relative validation-NRMSE improvement that counts.
+        Smallest relative validation-NRMSE improvement that counts (default
+        :data:`.evidence.MIN_IMPROVEMENT`).
     hp_factor, lp_factor : float
         High-pass cut-off as a fraction of ``1/(2π(τ+θ))`` (slow-load rejection);
         low-pass cut-off in multiples of ``1/(2πτ)`` (noise rejection).

@@ -37,6 +37,14 @@ from .hypotheses import HYPOTHESES, Nominal
 from .noise import NoiseModel, fit_noise_model, input_independence, ljung_box, lr_test
 from .openloop import highpass
 
+#: test level of the likelihood-ratio tests and the least relative improvement of the
+#: validation NRMSE: the pair that names most recordings of the three-family concealed
+#: benchmark (``experiments/concealed.py``, all families pooled, in-sample) with ``none``
+#: called physics ≤ 5 %; its leave-one-family-out numbers in ``reports/concealed/``
+#: are the out-of-sample estimate of this choice
+ALPHA = 1e-3
+MIN_IMPROVEMENT = 0.1
+
 
 @dataclass
 class Verdict:
