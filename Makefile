@@ -48,6 +48,7 @@ real: venv
 	$(BIN)/stictionbench batch $(DATA)/plant --labels $(DATA)/plant/labels.csv --diagnose flagged --json reports/real/plant/batch.json --report reports/real/plant
 	$(BIN)/stictionbench oscillation-benchmark $(DATA)/isdb-oscillation/benchmark.mat --out reports/real/oscillation
 	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
+	$(BIN)/python experiments/simulated_loops.py
 
 # concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out (about 10 minutes on 2 cores)
 concealed: venv

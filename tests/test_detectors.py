@@ -273,3 +273,23 @@ def test_registered_and_declared(name):
     assert name in available()
     est = make(name)
     assert set(est._parameter_constraints) == set(est.param_names())
+
+
+def test_servo_loop_is_outside_the_shape_detectors_premise():
+    """A square-wave set point makes the control error a train of step responses: the
+    shape-based detectors answer inconclusive instead of reading the response as stiction,
+    and the same loop at a constant set point is judged."""
+    kw = dict(duration=2200.0, seed=0, sample_time=1.0, sensor="noisy", disturbance="load",
+              disturbance__load_std=0.5)
+    servo = simulate("linear", **kw)
+    servo = Recording.from_arrays(servo.t, servo.PV, servo.OP, SP=servo.SP)
+    for name in ("horch", "he", "area_ratio"):
+        d = make(name).estimate(servo, x="OP", y="PV").diagnostics
+        assert (d["verdict"], d["reason"]) == ("inconclusive",
+                                               "set point moves as often as the loop "
+                                               "oscillates"), name
+    # without the set point the gate cannot know: the premise is the caller's
+    blind = Recording.from_arrays(servo.t, servo.PV, servo.OP)
+    reasons = {make(n).estimate(blind, x="OP", y="PV").diagnostics["reason"]
+               for n in ("horch", "he", "area_ratio")}
+    assert "set point moves as often as the loop oscillates" not in reasons

@@ -22,7 +22,7 @@ from .detector import (
     half_cycles,
     harmonic_filter,
     loop_signals,
-    oscillation,
+    self_oscillation,
     setpoint_changes,
 )
 
@@ -115,9 +115,9 @@ class AreaRatio(StictionDetector):
     def _estimate(self, x: np.ndarray, y: np.ndarray | None, rec: Recording
                   ) -> EstimateResult:
         _, e = loop_signals(self.name, x, y, rec, self.use_error)
-        osc = oscillation(e)
-        if not osc.oscillating:
-            return self._no_oscillation(osc, margin=self.margin)
+        osc, why = self_oscillation(e, rec)
+        if why:
+            return self._no_oscillation(osc, why, margin=self.margin)
         ratios = area_ratios(harmonic_filter(e, osc.period_samples), osc.period_samples,
                              exclude=setpoint_changes(rec))
         r = float(np.mean(ratios)) if ratios.size else float("nan")

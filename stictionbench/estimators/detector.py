@@ -98,6 +98,65 @@ def oscillation(x: np.ndarray) -> AcfOscillation:
     return acf_oscillation(x)
 
 
+#: set-point changes per oscillation period from which the set point can drive what
+#: looks like the loop's oscillation
+SERVO_CHANGES_PER_PERIOD = 0.5
+#: largest distance of the set point's period / the oscillation's period from a whole
+#: number (1–5) for the oscillation to be that periodic set point's response
+HARMONIC_TOL = 0.15
+
+
+def forced_by_setpoint(x: np.ndarray, rec: Recording, osc: AcfOscillation) -> float | None:
+    """The harmonic number ``k`` when the oscillation ``osc`` of ``x`` is the loop's
+    response to a periodic set point (its period is the set point's period over ``k``,
+    within :data:`HARMONIC_TOL`, and the set point changes at least
+    :data:`SERVO_CHANGES_PER_PERIOD` times per oscillation period), else None.
+
+    The published detectors judge the *self-sustained* oscillation of a loop in regulatory
+    operation (Jelali & Huang 2010, ch. 2 and 13). Under a periodic (square-wave) set
+    point the control error of a linear loop is a train of step responses: periodic with
+    the set point, so its ACF period is the set point's period or one of its harmonics,
+    and the asymmetric shape of a step response reads as stiction in the shape-based tests.
+    A limit cycle (stiction, tight tuning) has its own period, in general not a harmonic
+    of the set point's.
+
+    Examples
+    --------
+    >>> n = np.arange(2000)
+    >>> sp = 50 + 10 * (np.sin(2 * np.pi * n / 400) > 0)
+    >>> e = np.sin(2 * np.pi * n / 400) + 0.1 * np.cos(2 * np.pi * n / 40)
+    >>> rec = Recording.from_arrays(n * 1.0, sp - e, np.zeros(2000), SP=sp)
+    >>> forced_by_setpoint(e, rec, oscillation(e))
+    1
+    >>> cycle = np.sin(2 * np.pi * n / 110)          # a limit cycle of its own period
+    >>> forced_by_setpoint(cycle, rec, oscillation(cycle)) is None
+    True
+    """
+    if rec.SP is None or not osc.oscillating:
+        return None
+    if setpoint_changes(rec).size * osc.period_samples / max(len(x), 1) \
+            < SERVO_CHANGES_PER_PERIOD:
+        return None
+    sp = oscillation(np.asarray(rec.SP, dtype=float))
+    if not sp.oscillating:
+        return None
+    r = sp.period_samples / osc.period_samples
+    k = round(r)
+    return int(k) if 1 <= k <= 5 and abs(r - k) <= HARMONIC_TOL else None
+
+
+def self_oscillation(x: np.ndarray, rec: Recording) -> tuple[AcfOscillation, str | None]:
+    """:func:`oscillation` of ``x`` and why the detectors' premise fails (``"no
+    oscillation"``, ``"set point moves as often as the loop oscillates"``), or None when
+    it holds."""
+    osc = oscillation(x)
+    if not osc.oscillating:
+        return osc, "no oscillation"
+    if forced_by_setpoint(x, rec, osc) is not None:
+        return osc, "set point moves as often as the loop oscillates"
+    return osc, None
+
+
 def harmonic_filter(x: np.ndarray, period: float, harmonics: float = 10.0) -> np.ndarray:
     """Zero-phase band-pass from half the oscillation frequency to ``harmonics`` times
     it: drift and noise go, the harmonics that make a wave triangular or square stay.
@@ -195,8 +254,9 @@ class StictionDetector(Estimator):
         return EstimateResult(method=self.name, value=float(value), units=units,
                               decision=decision, meaning=MEANING, diagnostics=diag)
 
-    def _no_oscillation(self, osc: AcfOscillation, **diagnostics: Any) -> EstimateResult:
-        """The inconclusive result of a loop that does not oscillate."""
-        return self._result(float("nan"), None, "no oscillation",
+    def _no_oscillation(self, osc: AcfOscillation, reason: str = "no oscillation",
+                        **diagnostics: Any) -> EstimateResult:
+        """The inconclusive result of a loop without a self-sustained oscillation."""
+        return self._result(float("nan"), None, reason,
                             regularity=osc.regularity, period_samples=osc.period_samples,
                             **diagnostics)

@@ -25,7 +25,7 @@ from .detector import (
     harmonic_filter,
     loop_signals,
     ordered,
-    oscillation,
+    self_oscillation,
     setpoint_changes,
     three_way,
 )
@@ -198,9 +198,9 @@ class He(StictionDetector):
         x, e = loop_signals(self.name, x, y, rec, self.use_error)
         rule = {"low": self.low, "high": self.high, "fitted": "PV" if self.integrating
                 else "OP"}
-        osc = oscillation(e)
-        if not osc.oscillating:
-            return self._no_oscillation(osc, **rule)
+        osc, why = self_oscillation(e, rec)
+        if why:
+            return self._no_oscillation(osc, why, **rule)
         s = harmonic_filter(e if self.integrating else x, osc.period_samples)
         si, mse_sin, mse_tri, n_half = stiction_index(s, osc.period_samples,
                                                       exclude=setpoint_changes(rec))

@@ -20,7 +20,7 @@ from scipy import signal as sps
 from ..recording import Recording
 from ..validation import Constraint, Interval, TypeOf
 from .base import EstimateResult
-from .detector import StictionDetector, loop_signals, ordered, oscillation, three_way
+from .detector import StictionDetector, loop_signals, ordered, self_oscillation, three_way
 from .oscillation import _zero_crossings
 
 
@@ -162,9 +162,9 @@ class Horch(StictionDetector):
         if self.integrating:
             return self._result(float("nan"), None, "integrating loop", units="deg",
                                 **thresholds)
-        osc = oscillation(e)
-        if not osc.oscillating:
-            return self._no_oscillation(osc, **thresholds)
+        osc, why = self_oscillation(e, rec)
+        if why:
+            return self._no_oscillation(osc, why, **thresholds)
         period = osc.period_samples
         max_lag = min(x.size - 1, int(math.ceil(period)))
         lags, r = cross_correlation(x, e, max_lag)
