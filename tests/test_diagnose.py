@@ -209,6 +209,23 @@ def test_noise_model_recovers_ar_and_integration():
     assert fit_noise_model(walk).integrated
 
 
+def test_kstep_prediction_errors():
+    rng = np.random.default_rng(1)
+    e = rng.normal(size=20000)
+    x = lfilter([1.0], [1.0, -0.8], e)
+    h = fit_noise_model(x)
+    np.testing.assert_allclose(h.kstep(x, 1), h.whiten(x))
+    # k-step error variance of an AR(1): σ²·(1 − φ^(2k)) / (1 − φ²)
+    for k in (2, 5, 20):
+        want = (1 - 0.8 ** (2 * k)) / (1 - 0.8 ** 2)
+        assert np.var(h.kstep(x, k)[100:]) == pytest.approx(want, rel=0.05)
+    # a slow deterministic mismatch is invisible one step ahead of a random-walk model,
+    # not k steps ahead
+    walk = fit_noise_model(np.cumsum(e))
+    slow = np.sin(2 * np.pi * np.arange(20000) / 2000)
+    assert np.var(walk.kstep(slow, 1)) < 1e-3 < 0.1 < np.var(walk.kstep(slow, 200))
+
+
 def test_lr_and_independence_statistics():
     t = lr_test(2.0, 1.0, 100, 2)
     assert t["statistic"] == pytest.approx(100 * math.log(2.0))

@@ -276,10 +276,12 @@ def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA) -> tup
 
 def validate(cmp: Comparison, fits: dict[str, Fit], *, alpha: float = ALPHA,
              min_improvement: float = MIN_IMPROVEMENT) -> Verdict:
-    """Stage 5: prediction-error evidence (:func:`.evidence.validate`)."""
+    """Stage 5: prediction-error evidence (:func:`.evidence.validate`), one step and
+    ``τ + θ`` ahead (the loop's time scale)."""
     c = cmp.ctx
+    horizon = max(1, int(round((c.tau + c.theta) / c.Ts)))
     return _validate(fits, c.pv, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val,
-                     alpha=alpha, min_improvement=min_improvement)
+                     alpha=alpha, min_improvement=min_improvement, horizon=horizon)
 
 
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,

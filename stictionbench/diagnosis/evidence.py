@@ -9,9 +9,12 @@ into its own, more flexible, noise model (Ljung, *System Identification*, 1999, 
 
 - **against the nominal model** (every hypothesis contains it): the likelihood ratio of the
   one-step prediction errors on the *validation* blocks, ``N·ln(V₀/V₁)``, against χ² with
-  the number of extra parameters; a hypothesis is *significant* when its p-value is below
-  ``alpha`` and its simulation NRMSE on the validation blocks improves by at least
-  ``min_improvement``;
+  the number of extra parameters, and the same on the ``k``-step-ahead errors with ``k``
+  the loop's time scale ``τ + θ`` (``N/k`` effective samples: a mismatch slower than the
+  noise model's memory is predicted away one step ahead, not ``k`` steps ahead); the
+  smaller p-value, Bonferroni-corrected, is the hypothesis's p-value. A hypothesis is
+  *significant* when that p-value is below ``alpha`` and its simulation NRMSE on the
+  validation blocks improves by at least ``min_improvement``;
 - **across families**: among the significant ones, the lowest BIC of the innovations on
   the training plus the validation blocks wins;
 - **nested physics**: stiction contains the dead band (``J = 0``): when both are
@@ -91,29 +94,52 @@ def _slip_jump_test(fits: dict[str, Fit], var: dict[str, dict[str, float]],
     return lr_test(var["deadband"]["train"], var["stiction"]["train"], n_train, 1)
 
 
+def _against_nominal(name: str, ft: Fit, base: Fit, var: dict[str, dict[str, float]],
+                     ek: dict[str, np.ndarray], val: np.ndarray,
+                     horizon: int) -> dict[str, float]:
+    """LR tests of a hypothesis against the nominal model on the validation blocks: on
+    one-step innovations (``N·ln(V₀/V₁)``) and on ``horizon``-step prediction errors
+    (``(N/horizon)·ln(V₀ₖ/V₁ₖ)``: overlapping k-step errors carry about ``N/k``
+    independent samples); ``p_value`` is the smaller p-value, Bonferroni-corrected."""
+    df = max(1, ft.n_params - base.n_params)
+    one = lr_test(var["none"]["validation"], var[name]["validation"], val.size, df)
+    if horizon <= 1:
+        return {**one, "p_one_step": one["p_value"], "p_k_step": one["p_value"]}
+    vk0 = float(np.mean(ek["none"][val] ** 2))
+    vk1 = float(np.mean(ek[name][val] ** 2))
+    kst = lr_test(vk0, vk1, max(1, val.size // horizon), df)
+    p = min(1.0, 2.0 * min(one["p_value"], kst["p_value"]))
+    stat = one["statistic"] if one["p_value"] <= kst["p_value"] else kst["statistic"]
+    return {"statistic": stat, "p_value": p, "df": df, "p_one_step": one["p_value"],
+            "p_k_step": kst["p_value"]}
+
+
 def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_hp: float,
              train: np.ndarray, val: np.ndarray, *, alpha: float,
-             min_improvement: float) -> Verdict:
+             min_improvement: float, horizon: int = 1) -> Verdict:
     """Decide among fitted hypotheses (``fits["none"]`` is the nominal model) by
-    prediction-error likelihood; see the module docstring."""
+    prediction-error likelihood; see the module docstring. ``horizon`` (samples) adds
+    the k-step-ahead test (the loop's time scale ``τ + θ``)."""
     oe = {name: output_error(ft, pv, Ts, f_hp) for name, ft in fits.items()}
     best = min(fits, key=lambda k: fits[k].cost_train)
     noise = fit_noise_model(oe[best][train])
     e = {name: noise.whiten(r) for name, r in oe.items()}
+    ek = {name: noise.kstep(r, horizon) for name, r in oe.items()} if horizon > 1 else {}
     var = _scores(fits, e, train, val)
     base = fits["none"]
     rows = []
     for name, ft in fits.items():
         if name == "none":
-            lr = {"statistic": 0.0, "p_value": 1.0, "df": 0}
+            lr = {"statistic": 0.0, "p_value": 1.0, "df": 0, "p_one_step": 1.0,
+                  "p_k_step": 1.0}
             improvement = 0.0
         else:
-            lr = lr_test(var["none"]["validation"], var[name]["validation"], val.size,
-                         max(1, ft.n_params - base.n_params))
+            lr = _against_nominal(name, ft, base, var, ek, val, horizon)
             improvement = 1.0 - ft.nrmse_val / max(base.nrmse_val, 1e-300)
         rows.append({"physics": name, "raw_score": var[name]["bic"],
                      "p_value": lr["p_value"], "lr_statistic": lr["statistic"],
-                     "df": lr["df"],
+                     "df": lr["df"], "p_one_step": lr["p_one_step"],
+                     "p_k_step": lr["p_k_step"],
                      "improvement": improvement, "nrmse_validation": ft.nrmse_val,
                      "innovation_variance": var[name]["validation"],
                      "parameters": ft.params,
@@ -158,7 +184,8 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
 
 def _ranking(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     best = min(r["raw_score"] for r in rows)
-    keys = ("physics", "improvement", "p_value", "lr_statistic", "df", "nrmse_validation",
+    keys = ("physics", "improvement", "p_value", "p_one_step", "p_k_step", "lr_statistic",
+            "df", "nrmse_validation",
             "innovation_variance", "significant", "parameters")
     return sorted(({"score": r["raw_score"] - best, **{k: r[k] for k in keys}} for r in rows),
                   key=lambda r: r["score"])

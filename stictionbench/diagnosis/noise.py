@@ -56,6 +56,18 @@ class NoiseModel:
             return np.convolve(x, b)[: len(x)]
         return lfilter(b, [1.0], x, axis=0)
 
+    def kstep(self, x: np.ndarray, k: int) -> np.ndarray:
+        """``k``-step-ahead prediction errors of ``x`` under this noise model:
+        ``F_k(q)·H(q)⁻¹·x`` with ``F_k`` the first ``k`` impulse-response coefficients of
+        ``H`` (Ljung 1999, eq. 3.31). ``k = 1`` gives the innovations; a large ``k`` tends
+        to the output error itself. A mismatch slower than the noise model's memory is
+        predicted away one step ahead but not ``k`` steps ahead."""
+        k = max(1, int(k))
+        imp = np.zeros(k)
+        imp[0] = 1.0
+        f = lfilter([1.0], self.inverse(), imp)
+        return lfilter(f, [1.0], self.whiten(x), axis=0)
+
     def to_dict(self) -> dict[str, Any]:
         return {"family": "ARI" if self.integrated else "AR", "ar_order": self.order,
                 "integrated": bool(self.integrated), "ar": [float(a) for a in self.ar[1:]],
