@@ -35,6 +35,7 @@ from scipy.stats import skew
 from ..config import compose
 from ..estimators import make
 from ..recording import Recording
+from ..reports.tables import magnitude
 from ..sim.compose import simulate
 from ..sim.valves import PhysicalValve, respond
 
@@ -152,7 +153,7 @@ def xcum_windows(rec: Recording, windows: tuple[int, ...] = WINDOWS) -> pd.DataF
         rows.append({"max_delay": m, "delay_samples": int(r.value),
                      "at_edge": bool(d["at_edge"]), "wide_delay": d["wide_delay"],
                      "tsvd_delay": d["tsvd_delay"], "unstable": bool(d["unstable"]),
-                     "condition_number": float(d["condition_number"]),
+                     "condition_number": magnitude(d["condition_number"]),
                      "decision": r.decision})
     return pd.DataFrame(rows)
 

@@ -9,6 +9,7 @@ from typing import Any
 
 import pandas as pd
 
+from ..reports.tables import magnitude
 from .cases import CaseResult
 
 PAPER_REMARKS = {
@@ -107,7 +108,7 @@ def table7(results: list[CaseResult], cfg: Any) -> pd.DataFrame:
             "xcum_at_edge": bool(xq["at_edge"]),
             "xcum_unstable": bool(xq["unstable"]),
             "xcum_wide_delay": xq["wide_delay"],
-            "xcum_condition_number": float(xq["condition_number"]),
+            "xcum_condition_number": magnitude(xq["condition_number"]),
             "bicoherence_ngi": float(r.bic.diagnostics["ngi"]),
             "bicoherence_nli": float(r.bic.diagnostics["nli"]),
             "bicoherence_nonlinear": bool(r.bic.decision),

@@ -47,6 +47,19 @@ def write_table(df: pd.DataFrame, stem: str | Path, *, title: str = "", note: st
     return stem.with_suffix(".md"), stem.with_suffix(".csv")
 
 
+def magnitude(v: float, digits: int = 3) -> float:
+    """``v`` to ``digits`` significant digits: for numbers that carry an order of
+    magnitude and no more, such as the condition number of an ill-conditioned solve
+    (its trailing digits change with the BLAS build and thread count).
+
+    Examples
+    --------
+    >>> magnitude(444082960000.0)
+    444000000000.0
+    """
+    return float(f"{float(v):.{digits}g}")
+
+
 def csv_text(df: pd.DataFrame) -> str:
     r"""A DataFrame as CSV text with floats rounded to 8 significant digits.
 
