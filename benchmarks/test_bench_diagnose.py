@@ -1,6 +1,8 @@
-"""Diagnosis speed: ``diagnose`` on 3000-sample recordings, requirement ≤ 10 s each.
+"""Diagnosis speed: ``diagnose`` on 3000-sample recordings, requirement ≤ 2 s each.
 
-The requirement: "≤ 10 s per 3000-sample recording on 2 cores, measured in a benchmark".
+The requirement (issue 10): "≤ 2 s per 3000-sample recording on 2 cores, with and without
+a model" (it was ≤ 10 s before the prediction-error tests and the closed-loop valve
+identification joined the diagnosis).
 Recordings come from the concealed-data generator (``experiments/concealed.py``,
 ``generate(cls, level=2, seed=0)``: 3000 s at 1 s, MV not recorded, PV noise and an
 unmeasured slow load) for the classes in :data:`CLASSES`, read back from CSV and the
@@ -21,7 +23,7 @@ For each recording, in the same run:
 - model-free: ``diagnose(rec)`` (the nominal FOPDT identified from the recording),
   best of 2.
 
-Asserted: ours ≤ 10 s per recording, with and without a model. ``test_filter_calls``
+Asserted: ours ≤ 2 s per recording, with and without a model. ``test_filter_calls``
 adds the per-call cost of the two filters on a 3000-sample signal and a 3000 × 4
 regressor matrix. Writes ``reports/benchmarks/diagnose.md``. Run with ``-s``.
 """
@@ -51,7 +53,7 @@ REPORT = ROOT / "reports" / "benchmarks" / "diagnose.md"
 CLASSES = ("stiction", "deadband", "none", "oscillatory_disturbance")
 LEVEL = 2
 SEED = 0
-LIMIT_S = 10.0
+LIMIT_S = 2.0
 N_SAMPLES = 3000
 
 # `stictionbench.diagnosis.diagnose` is the function (re-exported by the package), so
