@@ -200,20 +200,30 @@ def detectability(df: pd.DataFrame, pred: pd.Series, out: Path) -> Path:
     snr = df.effect / df.noise_frac.clip(lower=1e-3)
     for ax, cls in zip(axs.ravel(), [c for c in CLASSES if c != "none"] + ["none"],
                        strict=True):
-        for fam in FAMILIES:
-            g = df[(df["class"] == cls) & (df.family == fam)]
+        bins = np.linspace(0.0, 1.0 if cls != "none" else 0.1, 6)
+        for fam in (*FAMILIES, "all families"):
+            g = df[(df["class"] == cls) & ((df.family == fam) | (fam == "all families"))]
             x = g.effect if cls != "none" else g.noise_frac
-            bins = np.linspace(0.0 if cls != "none" else 0.0, 1.0 if cls != "none" else 0.1, 6)
-            idx = np.digitize(x, bins[1:-1])
-            centres, rates_ = [], []
+            idx = np.clip(np.digitize(x, bins[1:-1]), 0, len(bins) - 2)
+            centres, rates_, lo, hi = [], [], [], []
             for b in range(len(bins) - 1):
                 sel = idx == b
                 if sel.any():
+                    k, n = int(ok[g.index][sel].sum()), int(sel.sum())
                     centres.append(0.5 * (bins[b] + bins[b + 1]))
-                    rates_.append(ok[g.index][sel].mean())
-            ax.plot(centres, rates_, marker="o", label=fam)
-        ax.set(title=cls, xlabel="effect size (0–1)" if cls != "none" else "noise / step",
-               ylim=(-0.05, 1.05))
+                    rates_.append(k / n)
+                    w = wilson(k, n)
+                    lo.append(k / n - w[0])
+                    hi.append(w[1] - k / n)
+            if fam == "all families":
+                ax.errorbar(centres, rates_, yerr=[lo, hi], color="k", marker="s", lw=2,
+                            capsize=3, label="all families (Wilson 95 %)")
+            else:
+                ax.plot(centres, rates_, marker="o", lw=1, alpha=0.6, label=fam)
+        ax.set(title=cls, ylim=(-0.05, 1.05))
+    for ax in axs[1]:
+        ax.set_xlabel("effect size (0–1)")
+    axs[1, -1].set_xlabel("noise / set-point step")
     axs[0, 0].set_ylabel("named correctly")
     axs[1, 0].set_ylabel("named correctly")
     axs[0, 0].legend(fontsize=8)
