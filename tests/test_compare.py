@@ -114,3 +114,23 @@ def test_compare_refuses_unlabelled_folder(tmp_path, capsys):
     assert main(["compare", str(tmp_path / "d"), "--out", str(tmp_path / "o")]) == 2
     assert "labels.csv" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_hammerstein_methods_fit_each_window_afresh():
+    """The two model-based methods share one fit per window; a later window (which may
+    reuse a freed window's memory address) must never get an earlier window's fit."""
+    from stictionbench.diagnosis.hammerstein import fit_hammerstein
+    from stictionbench.realdata import compare
+    from stictionbench.realdata.compare import METHODS
+
+    for seed, case in ((3, "stiction"), (4, "linear")):
+        rec = sb.simulate(case, duration=1500, seed=seed, sample_time=1.0, sensor="noisy",
+                          setpoint="constant", disturbance="load",
+                          disturbance__load_std=0.5)
+        rec = sb.Recording.from_arrays(rec.t, rec.PV, rec.OP)
+        call = METHODS["hammerstein"](rec, "F")
+        # the cache holds the window itself, so no later window can share its id
+        assert compare._FIT[0] is rec
+        h = fit_hammerstein(rec)
+        assert call.value == pytest.approx(h.J if h.stiction or h.sticky else h.S)
+        del rec

@@ -121,17 +121,17 @@ def _ellipse_v1(rec: Recording, kind: str) -> Call:
                 "first-release ellipse rule (in-sample)", e.get("ellipse_axis_ratio"))
 
 
-_FITS: dict[int, Any] = {}  # the Hammerstein fit of the window being judged (one fit, two calls)
+#: the window being judged and its Hammerstein fit (one fit, two methods). The window
+#: itself is held, not its ``id``: a freed window's id can be reused by the next one
+_FIT: list[Any] = [None, None]
 
 
 def _hammerstein_fit(rec: Recording):
     from ..diagnosis.hammerstein import fit_hammerstein
 
-    key = id(rec)
-    if key not in _FITS:
-        _FITS.clear()
-        _FITS[key] = fit_hammerstein(rec)
-    return _FITS[key]
+    if _FIT[0] is not rec:
+        _FIT[:] = [rec, fit_hammerstein(rec)]
+    return _FIT[1]
 
 
 def _hammerstein(rec: Recording, kind: str) -> Call:
