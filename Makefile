@@ -50,9 +50,11 @@ real: venv
 	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
 	$(BIN)/python experiments/simulated_loops.py
 
-# concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out (about 10 minutes on 2 cores)
+# concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out,
+# with the nominal model and model-free (about 6 minutes on 2 cores)
 concealed: venv
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2
+	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --model-free
 
 lint: venv
 	$(BIN)/ruff check stictionbench tests benchmarks experiments
