@@ -92,12 +92,15 @@ def write_text(path: str | os.PathLike[str], text: str) -> None:
         tmp.write_text(text, encoding="utf-8")
 
 
-def _check_path(path: str | os.PathLike[str]) -> Path:
+def check_input_file(path: str | os.PathLike[str], expected: str = "a recording file"
+                     ) -> Path:
+    """``path`` as a Path, or a one-line InputError when it is missing, a directory
+    (the message names what was ``expected``) or empty."""
     p = Path(path)
     if not p.exists():
         raise InputError(f"{p}: no such file")
     if p.is_dir():
-        raise InputError(f"{p}: is a directory, expected a recording file")
+        raise InputError(f"{p}: is a directory, expected {expected}")
     if p.stat().st_size == 0:
         raise InputError(f"{p}: empty file")
     return p
@@ -119,7 +122,7 @@ def read_recording(path: str | os.PathLike[str], *, warn: bool = True) -> Record
         Missing path, directory, empty or binary file, missing columns, text in a
         numeric column, and every rule of :meth:`Recording.from_arrays`.
     """
-    p = _check_path(path)
+    p = check_input_file(path)
     suffix = p.suffix.lower()
     if suffix == ".parquet":
         return _read_parquet(p, warn=warn)

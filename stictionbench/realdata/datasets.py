@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from ..io import read_recording
+from ..io import check_input_file, read_recording
 from ..recording import REQUIRED, Recording
 
 #: ISDB sector field -> loop-name prefix used in the book (Jelali & Huang 2010)
@@ -118,13 +118,7 @@ def _loadmat(path: str | os.PathLike[str]) -> dict[str, Any]:
     """``scipy.io.loadmat`` with one-line errors."""
     from scipy.io import loadmat
 
-    p = Path(path)
-    if not p.exists():
-        raise InputError(f"{p}: no such file")
-    if p.is_dir():
-        raise InputError(f"{p}: is a directory, expected a .mat file")
-    if p.stat().st_size == 0:
-        raise InputError(f"{p}: empty file")
+    p = check_input_file(path, "a .mat file")
     try:
         return loadmat(p, squeeze_me=True, struct_as_record=False)
     except NotImplementedError:
