@@ -49,12 +49,14 @@ real: venv
 	$(BIN)/stictionbench oscillation-benchmark $(DATA)/isdb-oscillation/benchmark.mat --out reports/real/oscillation
 	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
 	$(BIN)/python experiments/simulated_loops.py
+	$(BIN)/python experiments/isdb_noise_model.py --data $(DATA)/isdb
 
 # concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out,
 # with the nominal model and model-free (about 6 minutes on 2 cores)
 concealed: venv
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --model-free
+	$(BIN)/python experiments/controller_rate_artefact.py
 
 lint: venv
 	$(BIN)/ruff check stictionbench tests benchmarks experiments

@@ -259,10 +259,11 @@ class OscillatoryDisturbance(Hypothesis):
 
     def _min_period(self, ctx):
         # no faster than the process time constant (and four samples): below it, a narrow
-        # residual peak is as likely the closed-loop resonance seen through a controller
-        # that runs faster than the historian (OP between samples is not recorded) as an
-        # external disturbance; on the concealed benchmark a bound at half the low-pass
-        # corner period named that resonance in 2 of 12 ``none`` recordings of one family
+        # residual peak can come from how OP is recorded between controller updates; with
+        # the bound at half the low-pass corner period, `none` loops with a 0.5 s
+        # controller and a 1 s historian were named oscillatory (periods 18–26 s), and
+        # the calls vanished with the controller at 1 s or 0.1 s
+        # (experiments/controller_rate_artefact.py)
         return min(max(4 * ctx.Ts, ctx.tau), 0.5 * self._max_period(ctx))
 
     def grid(self, ctx):
