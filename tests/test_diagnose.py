@@ -16,6 +16,7 @@ from stictionbench.cli import main
 from stictionbench.diagnosis import VOCABULARY, NominalModel, diagnose
 from stictionbench.diagnosis.diagnose import compare, fit, hypothesise, locate, validate
 from stictionbench.diagnosis.evidence import select
+from stictionbench.diagnosis.locate import dominant_periods, tone_periods
 from stictionbench.diagnosis.noise import fit_noise_model, input_independence, ljung_box, lr_test
 from stictionbench.errors import InputError
 from stictionbench.io import write_recording
@@ -167,6 +168,23 @@ def test_hypothesise_seeds_periods_and_refuses_unknown(deadband_stages):
     assert cmp.ctx.resid_periods and all(p > 0 for p in cmp.ctx.resid_periods)
     with pytest.raises(InputError, match="unknown hypothesis"):
         hypothesise(cmp, loc, ("friction",))
+
+
+def test_tone_periods_resolve_a_line_between_welch_bins():
+    # a 52.15 s line in noise, seen on interleaved training blocks only: the padded
+    # periodogram places it within a small fraction of the 1/T basin; Welch's 512-point
+    # bins (51.2 s, 56.9 s) cannot
+    rng = np.random.default_rng(3)
+    n, Ts, period = 3000, 1.0, 52.15
+    t = np.arange(n) * Ts
+    r = 0.5 * np.sin(2 * np.pi * t / period + 0.3) + rng.normal(size=n)
+    edges = np.linspace(100, n, 9).round().astype(int)
+    train = np.concatenate([np.arange(edges[i], edges[i + 1]) for i in range(0, 8, 2)])
+    got = tone_periods(r, train, Ts, 10.0, 750.0, n=1)
+    assert abs(got[0] - period) < 0.1 * period ** 2 / n
+    assert min(abs(p - period) for p in dominant_periods(r, Ts)) > 0.5
+    assert tone_periods(r, train, Ts, 60.0, 750.0, n=3) and \
+        all(60.0 <= p <= 750.0 for p in tone_periods(r, train, Ts, 60.0, 750.0, n=3))
 
 
 def test_fit_gives_every_candidate_and_the_valve_identification(deadband_stages):

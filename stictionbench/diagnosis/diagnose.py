@@ -8,7 +8,8 @@
    white-noise floor; the band in frequency where its spectrum exceeds four times the
    floor; its coherence with OP there.
 3. :func:`hypothesise` — the candidate physics (:mod:`.hypotheses`), seeded with the
-   residual's dominant periods.
+   residual's line periods (zero-padded periodogram of the training blocks, resolved
+   within the ``1/T`` basin of a sinusoid fit) and its dominant (Welch) periods.
 4. :func:`fit` — every candidate fitted on the training blocks (grid, Nelder–Mead,
    profile intervals; :mod:`.fit`); the valve hypotheses by the closed-loop Hammerstein
    identification (:mod:`.hammerstein`), the process re-identified with the valve when
@@ -35,7 +36,7 @@ from .evidence import validate as _validate
 from .fit import Fit, Problem, fit_at, fit_hypothesis
 from .hammerstein import HammersteinResult, fit_hammerstein
 from .hypotheses import HYPOTHESES, Context, Nominal
-from .locate import dominant_periods, mismatch_band, mismatch_windows, noise_floor
+from .locate import dominant_periods, mismatch_band, mismatch_windows, noise_floor, tone_periods
 from .model import NominalModel, identify_pi
 from .openloop import highpass
 from .process import fit_fopdt, identify_fopdt
@@ -214,10 +215,15 @@ def locate(cmp: Comparison) -> Location:
 
 def hypothesise(cmp: Comparison, loc: Location,
                 names: tuple[str, ...] | None = None) -> tuple[str, ...]:
-    """Stage 3: the candidate physics, seeded with what the residual shows: its dominant
-    periods (and the centre of the located band) become starting periods of the
-    oscillatory-disturbance fit."""
-    periods = dominant_periods(cmp.nominal.resid[cmp.burn:], cmp.ctx.Ts)
+    """Stage 3: the candidate physics, seeded with what the residual shows: its line
+    periods on the training blocks (:func:`.locate.tone_periods`: a Welch bin is wider
+    than a sinusoid fit's cost basin, and a period off by a few per cent drifts out of
+    phase over the record), its dominant periods and the centre of the located band
+    become starting periods of the oscillatory-disturbance fit."""
+    lo, hi = HYPOTHESES["oscillatory_disturbance"].bounds(cmp.ctx)[0]
+    train = cmp.prob.train[cmp.prob.train >= cmp.burn]
+    periods = tone_periods(cmp.nominal.resid, train, cmp.ctx.Ts, lo, hi)
+    periods += dominant_periods(cmp.nominal.resid[cmp.burn:], cmp.ctx.Ts)
     if loc.band and loc.band[0] > 0:
         periods.append(2.0 / (loc.band[0] + loc.band[1]))
     cmp.ctx.resid_periods = periods

@@ -132,10 +132,13 @@ def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
                 continue
             z0 = _to_free(h, ctx, p0)
             fixed = p0[len(h.params):]
+            simplex = _simplex(h, z0, ctx)
+            # converge to a twentieth of the smallest initial step (at most 1e-3)
+            xatol = min(1e-3, 0.05 * float(np.min(np.ptp(simplex, axis=0))))
             minimize(lambda z, fixed=fixed: cost(_from_free(h, ctx, z, fixed)), z0,
                      method="Nelder-Mead",
-                     options={"xatol": 1e-3, "fatol": 1e-14, "maxiter": 120,
-                              "initial_simplex": _simplex(h, z0, ctx)})
+                     options={"xatol": xatol, "fatol": 1e-14, "maxiter": 120,
+                              "initial_simplex": simplex})
     best_p, best_c = min(evals, key=lambda e: e[1])
     # local profile grid around the optimum (for intervals)
     if h.params and np.all(np.isfinite(best_p)):
@@ -168,6 +171,10 @@ def _simplex(h: Hypothesis, z0: np.ndarray, ctx: Context) -> np.ndarray:
     if h.name == "stiction":
         # J can be 0: move it in absolute terms through its log
         step[:] = (0.3, 0.6)
+    if h.name == "oscillatory_disturbance":
+        # a sinusoid's cost basin is ~1/T wide in frequency: ln P moves by ~P/T
+        span = float(ctx.t[-1] - ctx.t[0]) or 1.0
+        step[:] = max(0.5 * math.exp(z0[0]) / span, 1e-4)
     pts = [z0]
     for i in range(z0.size):
         z = z0.copy()

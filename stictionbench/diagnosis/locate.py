@@ -4,7 +4,7 @@ and in frequency (residual spectrum against the noise floor, coherence with OP).
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import coherence, welch
+from scipy.signal import coherence, periodogram, welch
 
 
 def noise_floor(r: np.ndarray) -> float:
@@ -82,3 +82,23 @@ def dominant_periods(r: np.ndarray, Ts: float, n: int = 3) -> list[float]:
     peaks = [i for i in range(1, f.size - 1) if P[i] >= P[i - 1] and P[i] >= P[i + 1]]
     peaks.sort(key=lambda i: -P[i])
     return [float(1.0 / f[i]) for i in peaks[:n] if f[i] > 0]
+
+
+def tone_periods(r: np.ndarray, rows: np.ndarray, Ts: float, lo: float, hi: float,
+                 n: int = 3, pad: int = 8) -> list[float]:
+    """Periods (s, within ``[lo, hi]``) of the ``n`` largest peaks of the periodogram of
+    ``r`` on the sample indices ``rows`` (other samples zeroed), zero-padded ``pad``-fold.
+
+    The least-squares fit of one sinusoid has a cost basin about ``1/T`` wide in
+    frequency (``T`` the span of ``rows``); the periodogram's peak is its maximum-
+    likelihood frequency (Rife & Boorstyn, IEEE Trans. Inf. Theory 20(5), 1974), to a
+    fraction ``1/pad`` of a bin, which a smoothed (Welch) spectrum cannot resolve.
+    """
+    x = np.zeros(r.size)
+    x[rows] = r[rows] - np.mean(r[rows])
+    f, P = periodogram(x, fs=1.0 / Ts, window="boxcar", nfft=pad * r.size,
+                       detrend=False)
+    ok = (f >= 1.0 / hi) & (f <= 1.0 / lo)
+    idx = np.flatnonzero(ok[1:-1] & (P[1:-1] >= P[:-2]) & (P[1:-1] >= P[2:])) + 1
+    idx = idx[np.argsort(-P[idx])][:n]
+    return [float(1.0 / f[i]) for i in idx]
