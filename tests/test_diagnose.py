@@ -16,6 +16,7 @@ from stictionbench.cli import main
 from stictionbench.diagnosis import VOCABULARY, NominalModel, diagnose
 from stictionbench.diagnosis.diagnose import compare, fit, hypothesise, locate, validate
 from stictionbench.diagnosis.evidence import select
+from stictionbench.diagnosis.hypotheses import HYPOTHESES
 from stictionbench.diagnosis.locate import dominant_periods, tone_periods
 from stictionbench.diagnosis.noise import fit_noise_model, input_independence, ljung_box, lr_test
 from stictionbench.errors import InputError
@@ -270,3 +271,43 @@ def test_select_rule_nested_and_thresholds():
     assert select(rows, 1e-6, alpha=0.01, min_improvement=0.4) == "none"
     rows[1]["parameters"]["J"] = 0.05
     assert select(rows, 1e-6, alpha=0.01, min_improvement=0.05) == "deadband"
+
+
+def test_select_never_names_a_fit_on_a_search_bound():
+    rows = [{"physics": "none", "p_value": 1.0, "improvement": 0.0, "raw_score": 0.0,
+             "parameters": {}},
+            {"physics": "oscillatory_disturbance", "p_value": 1e-12, "improvement": 0.4,
+             "raw_score": -80.0, "parameters": {"period": 14.0}, "at_bound": True}]
+    assert select(rows, None, alpha=0.01, min_improvement=0.05) == "none"
+    rows[1]["at_bound"] = False
+    assert select(rows, None, alpha=0.01, min_improvement=0.05) == "oscillatory_disturbance"
+
+
+def test_oscillation_period_on_its_range_end_is_flagged(deadband_stages):
+    ctx = deadband_stages[0].ctx
+    osc = HYPOTHESES["oscillatory_disturbance"]
+    lo, hi = osc.bounds(ctx)[0]
+    assert osc.at_bound(ctx, np.array([lo])) and osc.at_bound(ctx, np.array([hi]))
+    assert not osc.at_bound(ctx, np.array([math.sqrt(lo * hi)]))
+    # the valve's S = 0 is physics (no valve), not a search limit
+    assert not HYPOTHESES["stiction"].at_bound(ctx, np.array([1e-3, 0.0, 0.0]))
+
+
+def test_model_free_nominal_is_the_better_linear_identification():
+    # a linear loop without a model: the Hammerstein's linear loop (a prediction-error
+    # fit) replaces the FOPDT only when it fits the training blocks better, and a valve
+    # hypothesis is then judged against it, not credited with the better process
+    rec = _rec(seed=11, disturbance="load", disturbance__load_std=1.0,
+               disturbance__load_time_constant=400.0, sensor__noise_std=0.3)
+    cmp = compare(rec)
+    before = cmp.nominal.cost_train
+    names = hypothesise(cmp, locate(cmp), ("deadband", "stiction"))
+    fits, ham = fit(cmp, names)
+    assert fits["none"] is cmp.nominal and cmp.nominal.cost_train <= before
+    assert cmp.model.source == "identified"
+    if cmp.nominal.cost_train < before:
+        assert cmp.model.time_constant == pytest.approx(ham.linear_process["time_constant"])
+    v = validate(cmp, fits)
+    assert v.pick == "none"
+    # against the FOPDT of compare, the dead band's likelihood ratio gave p ≈ 1e-6 here
+    assert all(r["p_value"] > 1e-3 for r in v.ranking if r["physics"] != "none")

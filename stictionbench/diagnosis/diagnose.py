@@ -235,16 +235,48 @@ def hypothesise(cmp: Comparison, loc: Location,
     return names
 
 
-def _valve_fits(cmp: Comparison, names: tuple[str, ...], alpha: float,
-                fits: dict[str, Fit]) -> HammersteinResult:
-    """Stiction from the closed-loop Hammerstein identification (process held at a
-    given model, re-identified otherwise) and the dead band refitted with that process."""
-    m, c = cmp.model, cmp.ctx
-    free = m.source != "given"
+def _identify_valve(cmp: Comparison, alpha: float) -> HammersteinResult:
+    """The closed-loop Hammerstein identification (process held at a given model,
+    re-identified otherwise)."""
+    m = cmp.model
     theta = max(m.dead_time + cmp.nominal.extra.get("timing_shift_s", 0.0), 0.0)
-    h = fit_hammerstein(cmp.rec, alpha=alpha, linear=(m.gain, m.time_constant, theta),
-                        fix_process=not free)
-    ctx_h = replace(c, tau=h.process["time_constant"], theta=h.process["dead_time"])
+    return fit_hammerstein(cmp.rec, alpha=alpha, linear=(m.gain, m.time_constant, theta),
+                           fix_process=m.source == "given")
+
+
+def _adopt_linear(cmp: Comparison, h: HammersteinResult) -> bool:
+    """Without a given model, the nominal is the better of two linear identifications:
+    the FOPDT of :func:`compare` and the linear loop of the Hammerstein identification
+    (its ``S = 0`` limit, a prediction-error fit). Otherwise a valve hypothesis, whose
+    process is re-identified, would be credited with what the better process explains:
+    a "dead band" of 0.01 % named on linear loops. Updates ``cmp`` in place when the
+    Hammerstein's linear loop fits the training blocks better; returns whether it did."""
+    lp, Ts = h.linear_process, cmp.ctx.Ts
+    ctx = replace(cmp.ctx, tau=lp["time_constant"], theta=max(lp["dead_time"], 0.0))
+    prob = Problem(ctx, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val, cmp.prob.f_lp)
+    nominal = _fit_aligned(prob, Nominal(), [s * Ts for s in np.arange(-1.0, 1.01, 0.25)
+                                             if ctx.theta + s * Ts >= 0])
+    if nominal.cost_train >= cmp.nominal.cost_train:
+        return False
+    s0 = nominal.extra["timing_shift_s"]
+    cmp.shifts = [s for s in (s0, s0 - 0.5 * Ts, s0 + 0.5 * Ts) if ctx.theta + s >= 0]
+    cmp.ctx, cmp.prob, cmp.nominal = ctx, prob, nominal
+    cmp.model = replace(cmp.model, gain=float(lp["gain"]), time_constant=ctx.tau,
+                        dead_time=ctx.theta)
+    return True
+
+
+def _valve_fits(cmp: Comparison, names: tuple[str, ...], h: HammersteinResult,
+                fits: dict[str, Fit]) -> None:
+    """Stiction from the closed-loop Hammerstein identification and the dead band
+    refitted with its process."""
+    c = cmp.ctx
+    # no valve found (S = 0, the linear limit): the valve hypotheses are fitted against
+    # the nominal's process, not credited with the Hammerstein's linear re-identification
+    free = cmp.model.source != "given"
+    ctx_h = c if free and h.S <= 0 else \
+        replace(c, tau=h.process["time_constant"], theta=h.process["dead_time"])
+    free = free and h.S > 0
     prob_h = Problem(ctx_h, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val, cmp.prob.f_lp)
     extra = {"time_constant": ctx_h.tau, "dead_time": ctx_h.theta} if free else {}
     if "stiction" in names:
@@ -259,18 +291,26 @@ def _valve_fits(cmp: Comparison, names: tuple[str, ...], alpha: float,
         ft.n_params += 2 * free
         ft.extra = {**ft.extra, **extra}
         fits["deadband"] = ft
-    return h
 
 
 def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA) -> tuple[
         dict[str, Fit], HammersteinResult | None]:
     """Stage 4: every candidate fitted on the training blocks; validation NRMSE (the
-    simulation error users understand) on the validation blocks."""
+    simulation error users understand) on the validation blocks. Without a given model
+    the valve identification runs first and its linear loop may replace the nominal
+    (:func:`_adopt_linear`), so that every hypothesis is judged against the better
+    linear model."""
+    h = None
+    if set(names) & set(VALVE_HYPOTHESES):
+        h = _identify_valve(cmp, alpha)
+        if cmp.model.source != "given":
+            _adopt_linear(cmp, h)
     fits: dict[str, Fit] = {"none": cmp.nominal}
     for name in names:
         if name not in VALVE_HYPOTHESES:
             fits[name] = _fit_aligned(cmp.prob, HYPOTHESES[name], cmp.shifts)
-    h = _valve_fits(cmp, names, alpha, fits) if set(names) & set(VALVE_HYPOTHESES) else None
+    if h is not None:
+        _valve_fits(cmp, names, h, fits)
     val = cmp.prob.val
     sy = float(np.std(cmp.prob.y[val])) or 1.0
     for ft in fits.values():

@@ -13,8 +13,9 @@ into its own, more flexible, noise model (Ljung, *System Identification*, 1999, 
   the loop's time scale ``τ + θ`` (``N/k`` effective samples: a mismatch slower than the
   noise model's memory is predicted away one step ahead, not ``k`` steps ahead); the
   smaller p-value, Bonferroni-corrected, is the hypothesis's p-value. A hypothesis is
-  *significant* when that p-value is below ``alpha`` and its simulation NRMSE on the
-  validation blocks improves by at least ``min_improvement``;
+  *significant* when that p-value is below ``alpha``, its simulation NRMSE on the
+  validation blocks improves by at least ``min_improvement`` and its fit is not on an end
+  of a search-limited range (``at_bound``: the oscillation period);
 - **across families**: among the significant ones, the lowest BIC of the innovations on
   the training plus the validation blocks wins;
 - **nested physics**: stiction contains the dead band (``J = 0``): when both are
@@ -142,9 +143,10 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
                      "p_k_step": lr["p_k_step"],
                      "improvement": improvement, "nrmse_validation": ft.nrmse_val,
                      "innovation_variance": var[name]["validation"],
-                     "parameters": ft.params,
+                     "parameters": ft.params, "at_bound": ft.at_bound,
                      "significant": bool(name != "none" and lr["p_value"] < alpha
-                                         and improvement >= min_improvement)})
+                                         and improvement >= min_improvement
+                                         and not ft.at_bound)})
     tests: dict[str, Any] = {}
     if {"stiction", "deadband"} <= set(fits):
         tests["slip_jump_zero"] = _slip_jump_test(fits, var, train.size)
@@ -163,14 +165,16 @@ MIN_SLIP_FRACTION = 0.1
 def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: float,
            min_improvement: float, min_slip_fraction: float = MIN_SLIP_FRACTION) -> str:
     """The decision rule alone, from each row's ``physics``, ``p_value`` (LR against the
-    nominal model), ``improvement`` (validation NRMSE) and ``raw_score`` (BIC; or the
+    nominal model), ``improvement`` (validation NRMSE), ``at_bound`` (a fit on the end of
+    a search-limited range, never named) and ``raw_score`` (BIC; or the
     ranking's ``score``, the same up to a constant), and the
     p-value of ``J = 0``: the significant hypothesis of lowest BIC; stiction and dead band
     (nested) by the slip-jump test when both are significant (stiction when ``J = 0`` is
     rejected and the fitted ``J`` is at least ``min_slip_fraction`` of ``S``). Benchmarks
     re-run it to set the thresholds on one generator family and test on another."""
     sig = {r["physics"] for r in rows if r["physics"] != "none"
-           and r["p_value"] < alpha and r["improvement"] >= min_improvement}
+           and r["p_value"] < alpha and r["improvement"] >= min_improvement
+           and not r.get("at_bound", False)}
     pick = min((r for r in rows if r["physics"] in sig),
                key=lambda r: r.get("raw_score", r.get("score", 0.0)),
                default={"physics": "none"})["physics"]
@@ -186,7 +190,7 @@ def _ranking(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     best = min(r["raw_score"] for r in rows)
     keys = ("physics", "improvement", "p_value", "p_one_step", "p_k_step", "lr_statistic",
             "df", "nrmse_validation",
-            "innovation_variance", "significant", "parameters")
+            "innovation_variance", "significant", "at_bound", "parameters")
     return sorted(({"score": r["raw_score"] - best, **{k: r[k] for k in keys}} for r in rows),
                   key=lambda r: r["score"])
 

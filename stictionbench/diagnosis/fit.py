@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
+from scipy.optimize import minimize, minimize_scalar
 from scipy.stats import chi2
 
 from .hypotheses import Context, Hypothesis
@@ -34,6 +34,8 @@ class Fit:
     nrmse_val: float = math.nan
     n_eff_val: float = math.nan
     extra: dict[str, Any] = field(default_factory=dict)
+    #: the fit sits on an end of a search-limited range (:meth:`.Hypothesis.at_bound`)
+    at_bound: bool = False
     #: the context (nominal dynamics, alignment) the fit was evaluated in
     ctx: Context | None = field(default=None, repr=False)
 
@@ -132,6 +134,13 @@ def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
                 continue
             z0 = _to_free(h, ctx, p0)
             fixed = p0[len(h.params):]
+            if h.interior_only and z0.size == 1:
+                # a line's period: bounded Brent search across its ~1/T cost basin
+                w = _simplex(h, z0, ctx)[1, 0] - z0[0]
+                minimize_scalar(lambda z: cost(_from_free(h, ctx, np.array([z]))),
+                                bounds=(z0[0] - 3 * w, z0[0] + 3 * w), method="bounded",
+                                options={"xatol": 0.05 * w})
+                continue
             simplex = _simplex(h, z0, ctx)
             # converge to a twentieth of the smallest initial step (at most 1e-3)
             xatol = min(1e-3, 0.05 * float(np.min(np.ptp(simplex, axis=0))))
@@ -160,6 +169,7 @@ def fit_at(prob: Problem, h: Hypothesis, p: np.ndarray) -> Fit:
     fit = Fit(h.name, p, beta, c, h.describe(p, beta), h.n_params_at(p), prob.y - pred, pred,
               evaluations=1)
     fit.extra = h.extra(p)
+    fit.at_bound = h.at_bound(prob.ctx, p)
     fit.ctx = prob.ctx
     return fit
 

@@ -54,6 +54,10 @@ class Hypothesis:
     params: tuple[str, ...] = ()
     #: number of extra linear coefficients beyond the gain (for the complexity penalty)
     extra_linear = 0
+    #: both ends of the parameter range are search limits, not physics: a fit on one of
+    #: them located no optimum and is not named (the replication's lesson: a window edge
+    #: is not an estimate)
+    interior_only = False
 
     def grid(self, ctx: Context) -> list[np.ndarray]:
         return [np.zeros(0)]
@@ -80,6 +84,14 @@ class Hypothesis:
 
     def describe(self, p: np.ndarray, beta: np.ndarray) -> dict[str, Any]:
         return {k: float(v) for k, v in zip(self.params, p, strict=False)}
+
+    def at_bound(self, ctx: Context, p: np.ndarray, rtol: float = 0.01) -> bool:
+        """Whether an :attr:`interior_only` fit sits within ``rtol`` (relative) of an
+        end of its search range."""
+        if not self.interior_only:
+            return False
+        return any(v <= lo * (1 + rtol) or v >= hi * (1 - rtol)
+                   for v, (lo, hi) in zip(p, self.bounds(ctx), strict=False))
 
     def extra(self, p: np.ndarray) -> dict[str, Any]:
         """Further (non-vocabulary) fitted settings, reported under details."""
@@ -247,6 +259,7 @@ class OscillatoryDisturbance(Hypothesis):
     name = "oscillatory_disturbance"
     params = ("period",)
     extra_linear = 2
+    interior_only = True
 
     def _max_period(self, ctx):
         # at least four cycles in the record (two in the validation blocks), and no slower
