@@ -52,10 +52,12 @@ real: venv
 	$(BIN)/python experiments/isdb_noise_model.py --data $(DATA)/isdb
 
 # concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out,
-# with the nominal model and model-free (about 6 minutes on 2 cores)
+# with the nominal model, model-free, and with output-error fits for comparison (about 9
+# minutes on 2 cores)
 concealed: venv
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --model-free
+	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --output-error
 	$(BIN)/python experiments/controller_rate_artefact.py
 
 lint: venv

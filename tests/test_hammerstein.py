@@ -41,6 +41,17 @@ def test_stiction_found_with_slip_jump(kano_fit):
     assert r.mv.size == len(rec)
 
 
+def test_valve_with_a_contradicting_process_is_not_a_valve(kano_fit):
+    from dataclasses import replace
+    _, r = kano_fit
+    assert r.consistent and r.process["gain"] * r.linear_process["gain"] > 0
+    # the same evidence with the valve model's process reversing the linear gain's sign
+    # (or its τ on the search floor) is not read as a sticky valve
+    bad = replace(r, consistent=False)
+    assert not bad.sticky and not bad.stiction
+    assert bad.to_dict()["process_consistent"] is False
+
+
 def test_linear_loop_not_called_stiction():
     r = fit_hammerstein(_rec("linear", seed=5))
     assert not r.stiction

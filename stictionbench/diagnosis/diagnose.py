@@ -10,8 +10,11 @@
 3. :func:`hypothesise` — the candidate physics (:mod:`.hypotheses`), seeded with the
    residual's line periods (zero-padded periodogram of the training blocks, resolved
    within the ``1/T`` basin of a sinusoid fit) and its dominant (Welch) periods.
-4. :func:`fit` — every candidate fitted on the training blocks (grid, Nelder–Mead,
-   profile intervals; :mod:`.fit`); the valve hypotheses by the closed-loop Hammerstein
+4. :func:`fit` — every candidate fitted on the training blocks by its one-step
+   prediction errors under the noise model of the nominal output error (the
+   prediction-error method: in closed loop OP reacts to the unmeasured load, which biases
+   output-error fits; Ljung 1999, ch. 7 and 13.4) — grid, Nelder–Mead, profile
+   intervals (:mod:`.fit`); the valve hypotheses by the closed-loop Hammerstein
    identification (:mod:`.hammerstein`), the process re-identified with the valve when
    no model was given.
 5. :func:`validate` — prediction-error evidence on the validation blocks
@@ -33,11 +36,12 @@ from ..errors import InputError
 from ..recording import Recording
 from .evidence import ALPHA, MIN_IMPROVEMENT, Verdict
 from .evidence import validate as _validate
-from .fit import Fit, Problem, fit_at, fit_hypothesis
+from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
 from .hammerstein import HammersteinResult, fit_hammerstein
 from .hypotheses import HYPOTHESES, Context, Nominal
 from .locate import dominant_periods, mismatch_band, mismatch_windows, noise_floor, tone_periods
 from .model import NominalModel, identify_pi
+from .noise import fit_noise_model
 from .openloop import highpass
 from .process import fit_fopdt, identify_fopdt
 
@@ -109,6 +113,8 @@ class Comparison:
     val_blocks: list[list[float]]
     shifts: list[float]
     nominal: Fit
+    #: refit every hypothesis by its one-step prediction errors (:func:`fit`)
+    pem: bool = True
 
 
 @dataclass
@@ -154,8 +160,7 @@ def _fit_aligned(cmp_prob: Problem, h, shifts: list[float]) -> Fit:
     best: Fit | None = None
     for shift in shifts if h.name != "dead_time" else (0.0,):
         ctx_s = replace(ctx, theta=ctx.theta + shift)
-        ft = fit_hypothesis(Problem(ctx_s, cmp_prob.f_hp, cmp_prob.train, cmp_prob.val,
-                                    cmp_prob.f_lp), h)
+        ft = fit_hypothesis(cmp_prob.with_ctx(ctx_s), h)
         ft.extra = {**ft.extra, "timing_shift_s": shift}
         if best is None or ft.cost_train < best.cost_train * (1 - 1e-9):
             best = ft
@@ -164,9 +169,12 @@ def _fit_aligned(cmp_prob: Problem, h, shifts: list[float]) -> Fit:
 
 
 def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: float = 0.3,
-            lp_factor: float = 5.0) -> Comparison:
+            lp_factor: float = 5.0, pem: bool = True) -> Comparison:
     """Stage 1: the nominal model (given, or identified FOPDT) replayed from the recorded
-    OP, its training/validation split and its fit (see the module docstring)."""
+    OP, its training/validation split and its output-error fit (see the module
+    docstring). ``pem`` (default) asks :func:`fit` to refit every hypothesis by its
+    one-step prediction errors; ``pem=False`` keeps the output-error fits (the earlier
+    method, for comparison: ``experiments/concealed.py --output-error``)."""
     _check(rec)
     model = _nominal_model(rec, model, hp_factor)
     n, Ts = len(rec), rec.Ts
@@ -195,7 +203,7 @@ def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: flo
     shifts = [s for s in (s0, s0 - 0.5 * Ts, s0 + 0.5 * Ts) if theta + s >= 0]
     val_blocks = [[float(rec.t[b[0]]), float(rec.t[b[-1]])] for b in blocks[1::2]]
     return Comparison(rec, model, ctx, prob, burn, int(edges[1]), val_blocks, shifts,
-                      nominal)
+                      nominal, pem)
 
 
 def locate(cmp: Comparison) -> Location:
@@ -253,7 +261,7 @@ def _adopt_linear(cmp: Comparison, h: HammersteinResult) -> bool:
     Hammerstein's linear loop fits the training blocks better; returns whether it did."""
     lp, Ts = h.linear_process, cmp.ctx.Ts
     ctx = replace(cmp.ctx, tau=lp["time_constant"], theta=max(lp["dead_time"], 0.0))
-    prob = Problem(ctx, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val, cmp.prob.f_lp)
+    prob = cmp.prob.with_ctx(ctx)
     nominal = _fit_aligned(prob, Nominal(), [s * Ts for s in np.arange(-1.0, 1.01, 0.25)
                                              if ctx.theta + s * Ts >= 0])
     if nominal.cost_train >= cmp.nominal.cost_train:
@@ -277,20 +285,52 @@ def _valve_fits(cmp: Comparison, names: tuple[str, ...], h: HammersteinResult,
     ctx_h = c if free and h.S <= 0 else \
         replace(c, tau=h.process["time_constant"], theta=h.process["dead_time"])
     free = free and h.S > 0
-    prob_h = Problem(ctx_h, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val, cmp.prob.f_lp)
+    prob_h = cmp.prob.with_ctx(ctx_h)
     extra = {"time_constant": ctx_h.tau, "dead_time": ctx_h.theta} if free else {}
+    # with the process re-identified, a valve must also beat the linear loop refitted
+    # under the same criterion (the identification's own likelihood-ratio test): the
+    # improvement over the nominal could otherwise come from the process alone; a valve
+    # whose process contradicts the linear loop's (gain sign, τ on its bound) is not one
+    gate = (h.tests["valve_vs_linear"]["p_value"] if h.consistent else 1.0) if free else None
     if "stiction" in names:
         code = 0 if h.stop_rule == "reversal" else 2
         ft = fit_at(prob_h, HYPOTHESES["stiction"], [max(h.S, 1e-3), h.J, code])
         ft.intervals = {"S": h.S_interval, "J": h.J_interval}
         ft.n_params += 2 * free
         ft.extra = {**ft.extra, **extra, "slip_jump_zero": h.tests["slip_jump_zero"]}
+        ft.gate_p = gate
         fits["stiction"] = ft
     if "deadband" in names:
         ft = fit_hypothesis(prob_h, HYPOTHESES["deadband"])
         ft.n_params += 2 * free
         ft.extra = {**ft.extra, **extra}
+        ft.gate_p = gate
         fits["deadband"] = ft
+
+
+def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit]) -> None:
+    """Refit every hypothesis by its one-step prediction errors ``H⁻¹(y − ŷ)`` under one
+    noise model ``H``: the AR (or integrated AR) model of the output error of the best
+    output-error fit — the larger model's, so that a limit cycle or a line the nominal
+    model leaves unexplained is not absorbed into ``H`` — each from its output-error
+    optimum. In closed loop OP reacts to the unmeasured load, which biases output-error
+    fits; the prediction-error method does not need the load to be uncorrelated with OP
+    (Ljung 1999, ch. 7 and 13.4). The valve identification is already a prediction-error
+    fit: its S, J are kept and only the gain is refitted."""
+    best = min(fits, key=lambda k: fits[k].cost_train)
+    noise = fit_noise_model(fits[best].resid[cmp.prob.train])
+    for name, ft in list(fits.items()):
+        prob = cmp.prob.with_ctx(ft.ctx).with_noise(noise)
+        h = Nominal() if name == "none" else HYPOTHESES[name]
+        if name == "stiction" or not h.params:
+            new = fit_at(prob, h, ft.p)
+            new.intervals, new.n_params = ft.intervals, ft.n_params
+        else:
+            new = refit_from(prob, h, ft.p)
+            new.n_params = ft.n_params
+        new.extra, new.gate_p = ft.extra, ft.gate_p
+        fits[name] = new
+    cmp.nominal = fits["none"]
 
 
 def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA) -> tuple[
@@ -311,6 +351,8 @@ def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA) -> tup
             fits[name] = _fit_aligned(cmp.prob, HYPOTHESES[name], cmp.shifts)
     if h is not None:
         _valve_fits(cmp, names, h, fits)
+    if cmp.pem:
+        _prediction_error_refit(cmp, fits)
     val = cmp.prob.val
     sy = float(np.std(cmp.prob.y[val])) or 1.0
     for ft in fits.values():
@@ -332,7 +374,8 @@ def validate(cmp: Comparison, fits: dict[str, Fit], *, alpha: float = ALPHA,
 
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
              min_improvement: float = MIN_IMPROVEMENT, hp_factor: float = 0.3,
-             lp_factor: float = 5.0, hypotheses: tuple[str, ...] | None = None) -> Diagnosis:
+             lp_factor: float = 5.0, hypotheses: tuple[str, ...] | None = None,
+             pem: bool = True) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -353,6 +396,9 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         low-pass cut-off in multiples of ``1/(2πτ)`` (noise rejection).
     hypotheses : tuple of str, optional
         Restrict the library (default: the whole vocabulary).
+    pem : bool
+        Fit the hypotheses by their one-step prediction errors under the nominal's noise
+        model (default); ``False`` fits output errors (see :func:`compare`).
 
     Returns
     -------
@@ -365,7 +411,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     Ind. Eng. Chem. Res. 44 (2005); Karra & Karim, Control Eng. Practice 17 (2009).
     """
     t0 = time.perf_counter()
-    cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor)
+    cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor, pem=pem)
     loc = locate(cmp)
     names = hypothesise(cmp, loc, hypotheses)
     fits, ham = fit(cmp, names, alpha=alpha)

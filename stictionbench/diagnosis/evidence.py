@@ -16,6 +16,10 @@ into its own, more flexible, noise model (Ljung, *System Identification*, 1999, 
   *significant* when that p-value is below ``alpha``, its simulation NRMSE on the
   validation blocks improves by at least ``min_improvement`` and its fit is not on an end
   of a search-limited range (``at_bound``: the oscillation period);
+- **the process re-identified** (no model given): a valve hypothesis must also beat the
+  linear loop refitted under the same criterion (the Hammerstein identification's own
+  likelihood-ratio test); its p-value is the larger of the two (an intersection–union
+  test);
 - **across families**: among the significant ones, the lowest BIC of the innovations on
   the training plus the validation blocks wins;
 - **nested physics**: stiction contains the dead band (``J = 0``): when both are
@@ -41,12 +45,15 @@ from .hypotheses import HYPOTHESES, Nominal
 from .noise import NoiseModel, fit_noise_model, input_independence, ljung_box, lr_test
 from .openloop import highpass
 
-#: test level of the likelihood-ratio tests and the least relative improvement of the
-#: validation NRMSE: the pair that names most recordings of the three-family concealed
-#: benchmark (``experiments/concealed.py``, all families pooled, in-sample) with ``none``
-#: called physics ≤ 5 %; its leave-one-family-out numbers in ``reports/concealed/``
-#: are the out-of-sample estimate of this choice
-ALPHA = 1e-3
+#: test level of the likelihood-ratio tests (and of the slip-jump interval) and the least
+#: relative improvement of the validation NRMSE: the pair that names most recordings of
+#: the three-family concealed benchmark (``experiments/concealed.py``, all families
+#: pooled, in-sample) with ``none`` called physics ≤ 5 %. With the prediction-error fits
+#: every leave-one-family-out fold picks the same pair; the summary in
+#: ``reports/concealed/`` recomputes the pooled choice on every run, and its
+#: leave-one-family-out numbers are the out-of-sample estimate of this choice. (With the
+#: output-error fits of the earlier method the pooled choice was 0.001 and 0.1.)
+ALPHA = 0.05
 MIN_IMPROVEMENT = 0.1
 
 
@@ -136,6 +143,9 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
             improvement = 0.0
         else:
             lr = _against_nominal(name, ft, base, var, ek, val, horizon)
+            if ft.gate_p is not None:
+                # intersection–union test: significant only when both tests are
+                lr = {**lr, "p_value": max(lr["p_value"], ft.gate_p)}
             improvement = 1.0 - ft.nrmse_val / max(base.nrmse_val, 1e-300)
         rows.append({"physics": name, "raw_score": var[name]["bic"],
                      "p_value": lr["p_value"], "lr_statistic": lr["statistic"],

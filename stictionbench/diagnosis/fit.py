@@ -13,6 +13,7 @@ from scipy.optimize import minimize, minimize_scalar
 from scipy.stats import chi2
 
 from .hypotheses import Context, Hypothesis
+from .noise import NoiseModel
 from .openloop import highpass
 
 
@@ -36,6 +37,9 @@ class Fit:
     extra: dict[str, Any] = field(default_factory=dict)
     #: the fit sits on an end of a search-limited range (:meth:`.Hypothesis.at_bound`)
     at_bound: bool = False
+    #: p-value of a further test the hypothesis must also pass (the valve against the
+    #: linear loop when the process is re-identified); ``None`` when there is none
+    gate_p: float | None = None
     #: the context (nominal dynamics, alignment) the fit was evaluated in
     ctx: Context | None = field(default=None, repr=False)
 
@@ -44,24 +48,37 @@ class Problem:
     """The data of one diagnosis: band-passed PV, training and validation rows."""
 
     def __init__(self, ctx: Context, f_hp: float | None, train: np.ndarray,
-                 val: np.ndarray, f_lp: float | None = None) -> None:
+                 val: np.ndarray, f_lp: float | None = None,
+                 noise: NoiseModel | None = None) -> None:
         self.ctx = ctx
         self.f_hp = f_hp
         self.f_lp = f_lp
         self.y = highpass(ctx.pv, ctx.Ts, f_hp, f_lp)
         self.train = train
         self.val = val
+        self.noise = noise
+        self.yw = self.y if noise is None else noise.whiten(self.y)
+
+    def with_ctx(self, ctx: Context) -> Problem:
+        """The same data, filters, blocks and noise model for another context."""
+        return Problem(ctx, self.f_hp, self.train, self.val, self.f_lp, self.noise)
+
+    def with_noise(self, noise: NoiseModel | None) -> Problem:
+        """The same problem under the noise model ``noise`` (prediction-error fit)."""
+        return Problem(self.ctx, self.f_hp, self.train, self.val, self.f_lp, noise)
 
     def evaluate(self, h: Hypothesis, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        """Return ``(train MSE, linear coefficients, high-passed prediction)``."""
+        """Return ``(training cost, linear coefficients, band-passed prediction)``: the
+        cost is the output-error MSE, or with a noise model ``H`` the variance of the
+        one-step prediction errors ``H⁻¹(y − Xβ)`` (Ljung 1999, ch. 7)."""
         X = highpass(h.regressors(self.ctx, p), self.ctx.Ts, self.f_hp, self.f_lp)
         if X.ndim == 1:
             X = X[:, None]
-        Xt, yt = X[self.train], self.y[self.train]
+        Xw = X if self.noise is None else self.noise.whiten(X)
+        Xt, yt = Xw[self.train], self.yw[self.train]
         beta, *_ = np.linalg.lstsq(Xt, yt, rcond=None)
-        pred = X @ beta
-        r = yt - pred[self.train]
-        return float(np.mean(r * r)), beta, pred
+        r = yt - Xt @ beta
+        return float(np.mean(r * r)), beta, X @ beta
 
 
 def n_effective(r: np.ndarray) -> float:
@@ -93,11 +110,39 @@ def _from_free(h: Hypothesis, ctx: Context, z: np.ndarray,
     return q
 
 
-def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
-                   starts: int = 3) -> Fit:
-    """Fit ``h``: evaluate its coarse grid, refine the best ``starts`` points with
-    Nelder–Mead, then add a local profile grid for the parameter intervals."""
-    ctx = prob.ctx
+def _local_search(h: Hypothesis, ctx: Context, p0: np.ndarray, cost) -> None:
+    """Refine ``h`` from ``p0``: Nelder–Mead in the search coordinates, a bounded Brent
+    search across a line's cost basin, the active limits of a saturation in OP units."""
+    finite = np.isfinite(p0)
+    if not finite.any():
+        return
+    if h.name == "saturation":
+        # refine only the active (finite) limits, in OP units
+        def obj(z):
+            p = p0.copy()
+            p[finite] = z
+            return cost(p)
+        minimize(obj, p0[finite], method="Nelder-Mead",
+                 options={"xatol": 0.02, "fatol": 1e-12, "maxiter": 60})
+        return
+    z0 = _to_free(h, ctx, p0)
+    fixed = p0[len(h.params):]
+    if h.interior_only and z0.size == 1:
+        # a line's period: bounded Brent search across its ~1/T cost basin
+        w = _simplex(h, z0, ctx)[1, 0] - z0[0]
+        minimize_scalar(lambda z: cost(_from_free(h, ctx, np.array([z]))),
+                        bounds=(z0[0] - 3 * w, z0[0] + 3 * w), method="bounded",
+                        options={"xatol": 0.05 * w})
+        return
+    simplex = _simplex(h, z0, ctx)
+    # converge to a twentieth of the smallest initial step (at most 1e-3)
+    xatol = min(1e-3, 0.05 * float(np.min(np.ptp(simplex, axis=0))))
+    minimize(lambda z: cost(_from_free(h, ctx, z, fixed)), z0, method="Nelder-Mead",
+             options={"xatol": xatol, "fatol": 1e-14, "maxiter": 120,
+                      "initial_simplex": simplex})
+
+
+def _recorder(prob: Problem, h: Hypothesis):
     evals: list[tuple[np.ndarray, float]] = []
 
     def cost(p: np.ndarray) -> float:
@@ -105,7 +150,31 @@ def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
         evals.append((p.copy(), c))
         return c
 
-    for p in h.grid(ctx):
+    return evals, cost
+
+
+def _finish(prob: Problem, h: Hypothesis, evals: list[tuple[np.ndarray, float]],
+            cost) -> Fit:
+    """The best evaluated point, a local profile grid around it and the intervals."""
+    best_p, _ = min(evals, key=lambda e: e[1])
+    if h.params and np.all(np.isfinite(best_p)):
+        for q in _local_grid(h, best_p, prob.ctx):
+            cost(q)
+        best_p, _ = min(evals, key=lambda e: e[1])
+    fit = fit_at(prob, h, best_p)
+    fit.evaluations = len(evals)
+    # innovations of a prediction-error fit are white: every training sample counts
+    n = prob.train.size if prob.noise is not None else n_effective(fit.resid[prob.train])
+    fit.intervals = profile_intervals(h, evals, fit.cost_train, n)
+    return fit
+
+
+def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
+                   starts: int = 3) -> Fit:
+    """Fit ``h``: evaluate its coarse grid, refine the best ``starts`` points with
+    Nelder–Mead, then add a local profile grid for the parameter intervals."""
+    evals, cost = _recorder(prob, h)
+    for p in h.grid(prob.ctx):
         cost(np.asarray(p, float))
     if h.params and refine:
         order = sorted(range(len(evals)), key=lambda i: evals[i][1])
@@ -120,45 +189,19 @@ def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
                     if not any(np.array_equal(best[0], q) for q in seeds):
                         seeds.append(best[0])
         for p0 in seeds:
-            finite = np.isfinite(p0)
-            if not finite.any():
-                continue
-            if h.name == "saturation":
-                # refine only the active (finite) limits, in OP units
-                def obj(z, p0=p0, finite=finite):
-                    p = p0.copy()
-                    p[finite] = z
-                    return cost(p)
-                minimize(obj, p0[finite], method="Nelder-Mead",
-                         options={"xatol": 0.02, "fatol": 1e-12, "maxiter": 60})
-                continue
-            z0 = _to_free(h, ctx, p0)
-            fixed = p0[len(h.params):]
-            if h.interior_only and z0.size == 1:
-                # a line's period: bounded Brent search across its ~1/T cost basin
-                w = _simplex(h, z0, ctx)[1, 0] - z0[0]
-                minimize_scalar(lambda z: cost(_from_free(h, ctx, np.array([z]))),
-                                bounds=(z0[0] - 3 * w, z0[0] + 3 * w), method="bounded",
-                                options={"xatol": 0.05 * w})
-                continue
-            simplex = _simplex(h, z0, ctx)
-            # converge to a twentieth of the smallest initial step (at most 1e-3)
-            xatol = min(1e-3, 0.05 * float(np.min(np.ptp(simplex, axis=0))))
-            minimize(lambda z, fixed=fixed: cost(_from_free(h, ctx, z, fixed)), z0,
-                     method="Nelder-Mead",
-                     options={"xatol": xatol, "fatol": 1e-14, "maxiter": 120,
-                              "initial_simplex": simplex})
-    best_p, best_c = min(evals, key=lambda e: e[1])
-    # local profile grid around the optimum (for intervals)
-    if h.params and np.all(np.isfinite(best_p)):
-        for q in _local_grid(h, best_p, ctx):
-            cost(q)
-        best_p, best_c = min(evals, key=lambda e: e[1])
-    fit = fit_at(prob, h, best_p)
-    fit.evaluations = len(evals)
-    fit.intervals = profile_intervals(h, evals, fit.cost_train,
-                                      n_effective(fit.resid[prob.train]))
-    return fit
+            _local_search(h, prob.ctx, p0, cost)
+    return _finish(prob, h, evals, cost)
+
+
+def refit_from(prob: Problem, h: Hypothesis, p0: np.ndarray) -> Fit:
+    """Refit ``h`` under ``prob`` (e.g. another noise model) by a local search from
+    ``p0`` (an earlier optimum), with the profile grid for the intervals."""
+    evals, cost = _recorder(prob, h)
+    p0 = np.asarray(p0, float)
+    cost(p0)
+    if h.params:
+        _local_search(h, prob.ctx, p0, cost)
+    return _finish(prob, h, evals, cost)
 
 
 def fit_at(prob: Problem, h: Hypothesis, p: np.ndarray) -> Fit:

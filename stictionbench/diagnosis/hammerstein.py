@@ -75,20 +75,24 @@ class HammersteinResult:
     alpha: float
     seconds: float = 0.0
     mv: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    #: the valve model's process is physically the linear loop's: same sign of gain (a
+    #: sticky valve does not reverse the process) and a time constant off the lower end
+    #: of its search range (there the optimiser found no process, only a fast fit)
+    consistent: bool = True
 
     @property
     def stiction(self) -> bool:
         """Valve significantly better than the linear loop *and* the ``1 − α`` interval of
-    ``J`` excludes 0 (the profile test of ``J = 0`` at level ``α``)."""
-        return bool(self.tests["valve_vs_linear"]["p_value"] < self.alpha
-                    and self.tests["slip_jump_zero"]["p_value"] < self.alpha
-                    and self.fit["improvement"] > 0.0)
+    ``J`` excludes 0 (the profile test of ``J = 0`` at level ``α``), with a
+    :attr:`consistent` process."""
+        return bool(self.sticky and self.tests["slip_jump_zero"]["p_value"] < self.alpha)
 
     @property
     def sticky(self) -> bool:
-        """Valve significantly better than the linear loop (stiction or a dead band)."""
+        """Valve significantly better than the linear loop (stiction or a dead band), with
+        a :attr:`consistent` process."""
         return bool(self.tests["valve_vs_linear"]["p_value"] < self.alpha
-                    and self.fit["improvement"] > 0.0)
+                    and self.fit["improvement"] > 0.0 and self.consistent)
 
     def to_dict(self) -> dict[str, Any]:
         return {"S": self.S, "J": self.J, "S_interval": self.S_interval,
@@ -98,6 +102,7 @@ class HammersteinResult:
                 "fit": self.fit, "noise_model": self.noise_model, "alpha": self.alpha,
                 "interval_level": 1.0 - self.alpha,
                 "stiction": self.stiction, "sticky_valve": self.sticky,
+                "process_consistent": self.consistent,
                 "seconds": self.seconds}
 
 
@@ -437,4 +442,6 @@ def _result(rec: Recording, crit: _Criterion, p: tuple, v_valve: float, v_lin: f
         fit={"metric": "nrmse", "segment": "validation", "linear": nr_l, "valve": nr_v,
              "improvement": 1.0 - nr_v / max(nr_l, 1e-300)},
         noise_model=crit.noise.to_dict(), alpha=alpha,
-        seconds=time.perf_counter() - t0, mv=mv)
+        seconds=time.perf_counter() - t0, mv=mv,
+        consistent=bool(S <= 0 or (K * K_l > 0 and (crit.fixed
+                                                   or tau > 1.05 * _bounds(crit, tau, 0)[0][0]))))
