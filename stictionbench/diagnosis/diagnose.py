@@ -325,6 +325,11 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit]) -> None:
         if name == "stiction" or not h.params:
             new = fit_at(prob, h, ft.p)
             new.intervals, new.n_params = ft.intervals, ft.n_params
+        elif h.interior_only:
+            # a line's period: the output-error optimum may sit in another basin (a slow
+            # load's), so the whole search is repeated under the new criterion
+            new = fit_hypothesis(prob, h)
+            new.n_params = ft.n_params
         else:
             new = refit_from(prob, h, ft.p)
             new.n_params = ft.n_params
