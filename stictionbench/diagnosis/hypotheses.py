@@ -41,6 +41,9 @@ class Context:
     theta: float
     f_hp: float | None = None
     resid_periods: list[float] = field(default_factory=list)
+    #: low-pass corner (Hz) of the comparison band (``None``: ``5/(2πτ)``, at most
+    #: ``0.4/Ts``)
+    f_lp: float | None = None
 
     @property
     def op_span(self) -> float:
@@ -271,13 +274,15 @@ class OscillatoryDisturbance(Hypothesis):
         return max(5 * ctx.Ts, min(T / 4, hp))
 
     def _min_period(self, ctx):
-        # no faster than the process time constant (and four samples): below it, a narrow
-        # residual peak can come from how OP is recorded between controller updates; with
-        # the bound at half the low-pass corner period, `none` loops with a 0.5 s
-        # controller and a 1 s historian were named oscillatory (periods 18–26 s), and
-        # the calls vanished with the controller at 1 s or 0.1 s
-        # (experiments/controller_rate_artefact.py)
-        return min(max(4 * ctx.Ts, ctx.tau), 0.5 * self._max_period(ctx))
+        # no faster than half the comparison band's low-pass corner period (above the
+        # band a line is filtered out of the data) and four samples. While hypotheses
+        # were fitted by output error the bound had to be τ: `none` loops with a 0.5 s
+        # controller and a 1 s historian were named oscillatory (periods 18–26 s) from
+        # how OP is recorded between controller updates; fitted by prediction error they
+        # are not (experiments/controller_rate_artefact.py), and the τ bound missed
+        # disturbances of a few closed-loop time constants in tightly tuned loops
+        f_lp = ctx.f_lp or min(0.4 / ctx.Ts, 5.0 / (2 * math.pi * ctx.tau))
+        return min(max(4 * ctx.Ts, 0.5 / f_lp), 0.5 * self._max_period(ctx))
 
     def grid(self, ctx):
         top, low = self._max_period(ctx), self._min_period(ctx)
