@@ -326,9 +326,10 @@ def summary(df: pd.DataFrame, tuned: tuple[float, float], lofo_tab: pd.DataFrame
            "read `none`." if args.model_free else
            "chosen on the prediction-error benchmark (`reports/concealed/`); these "
            "output-error fits are shown for comparison." if args.output_error else
-           "chosen by the same tuning on all three families pooled, so **in-sample** here; "
-           "the leave-one-family-out numbers above are the out-of-sample estimate of that "
-           "choice."), "",
+           "set from the same tuning on all three families pooled (recomputed below; where "
+           "the two differ, `stictionbench.diagnosis.evidence.ALPHA` says why), so "
+           "**in-sample** here; the leave-one-family-out numbers above are the "
+           "out-of-sample estimate of that choice."), "",
         *family_rates(df, df.predicted_default), "",
         *_pooled(df), "",
         f"## Thresholds tuned on `{TUNING_FAMILY}` only: alpha = {tuned[0]:g}, "

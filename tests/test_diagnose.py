@@ -323,3 +323,13 @@ def test_model_free_nominal_is_the_better_linear_identification():
     assert v.pick == "none"
     # against the FOPDT of compare, the dead band's likelihood ratio gave p ≈ 1e-6 here
     assert all(r["p_value"] > 1e-3 for r in v.ranking if r["physics"] != "none")
+
+
+def test_dead_time_within_the_alignment_range_is_not_physics(deadband_stages):
+    # the nominal model is aligned within ±1 sample of its dead time (the recording
+    # convention): a dead time fitted there is bookkeeping and never named
+    ctx = deadband_stages[0].ctx
+    dt = HYPOTHESES["dead_time"]
+    assert dt.at_bound(ctx, np.array([ctx.theta + 0.6 * ctx.Ts]))
+    assert dt.at_bound(ctx, np.array([ctx.theta - ctx.Ts]))
+    assert not dt.at_bound(ctx, np.array([ctx.theta + 1.5 * ctx.Ts]))
