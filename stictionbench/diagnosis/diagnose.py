@@ -279,12 +279,13 @@ def _valve_fits(cmp: Comparison, names: tuple[str, ...], h: HammersteinResult,
     """Stiction from the closed-loop Hammerstein identification and the dead band
     refitted with its process."""
     c = cmp.ctx
-    # no valve found (S = 0, the linear limit): the valve hypotheses are fitted against
-    # the nominal's process, not credited with the Hammerstein's linear re-identification
-    free = cmp.model.source != "given"
-    ctx_h = c if free and h.S <= 0 else \
+    given = cmp.model.source == "given"
+    # the process re-identified with a valve; with no valve found (S = 0, the linear
+    # limit) the valve hypotheses are fitted on the nominal's process instead, not
+    # credited with the Hammerstein's linear re-identification
+    free = not given and h.S > 0
+    ctx_h = c if not given and h.S <= 0 else \
         replace(c, tau=h.process["time_constant"], theta=h.process["dead_time"])
-    free = free and h.S > 0
     prob_h = cmp.prob.with_ctx(ctx_h)
     extra = {"time_constant": ctx_h.tau, "dead_time": ctx_h.theta} if free else {}
     # with the process re-identified, a valve must also beat the linear loop refitted
@@ -325,9 +326,9 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit]) -> None:
         if name == "stiction" or not h.params:
             new = fit_at(prob, h, ft.p)
             new.intervals, new.n_params = ft.intervals, ft.n_params
-        elif h.interior_only:
-            # a line's period: the output-error optimum may sit in another basin (a slow
-            # load's), so the whole search is repeated under the new criterion
+        elif h.basin_width(ft.ctx, ft.p) is not None:
+            # a narrow-basin parameter (a line's period): the output-error optimum may sit
+            # in another basin (a slow load's), so the whole search is repeated
             new = fit_hypothesis(prob, h)
             new.n_params = ft.n_params
         else:

@@ -4,6 +4,7 @@ parameter intervals."""
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -60,12 +61,18 @@ class Problem:
         self.yw = self.y if noise is None else noise.whiten(self.y)
 
     def with_ctx(self, ctx: Context) -> Problem:
-        """The same data, filters, blocks and noise model for another context."""
-        return Problem(ctx, self.f_hp, self.train, self.val, self.f_lp, self.noise)
+        """The same data, filters, blocks and noise model for another context (other
+        nominal dynamics of the same recording: the filtered PV is reused)."""
+        new = copy.copy(self)
+        new.ctx = ctx
+        return new
 
     def with_noise(self, noise: NoiseModel | None) -> Problem:
         """The same problem under the noise model ``noise`` (prediction-error fit)."""
-        return Problem(self.ctx, self.f_hp, self.train, self.val, self.f_lp, noise)
+        new = copy.copy(self)
+        new.noise = noise
+        new.yw = self.y if noise is None else noise.whiten(self.y)
+        return new
 
     def evaluate(self, h: Hypothesis, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """Return ``(training cost, linear coefficients, band-passed prediction)``: the
@@ -127,19 +134,16 @@ def _local_search(h: Hypothesis, ctx: Context, p0: np.ndarray, cost) -> None:
         return
     z0 = _to_free(h, ctx, p0)
     fixed = p0[len(h.params):]
-    if h.interior_only and z0.size == 1:
-        # a line's period: bounded Brent search across its ~1/T cost basin
-        w = _simplex(h, z0, ctx)[1, 0] - z0[0]
+    w = h.basin_width(ctx, p0)
+    if w is not None:
+        # a narrow basin (a line's period): bounded Brent search across a few widths
         minimize_scalar(lambda z: cost(_from_free(h, ctx, np.array([z]))),
                         bounds=(z0[0] - 3 * w, z0[0] + 3 * w), method="bounded",
                         options={"xatol": 0.05 * w})
         return
-    simplex = _simplex(h, z0, ctx)
-    # converge to a twentieth of the smallest initial step (at most 1e-3)
-    xatol = min(1e-3, 0.05 * float(np.min(np.ptp(simplex, axis=0))))
     minimize(lambda z: cost(_from_free(h, ctx, z, fixed)), z0, method="Nelder-Mead",
-             options={"xatol": xatol, "fatol": 1e-14, "maxiter": 120,
-                      "initial_simplex": simplex})
+             options={"xatol": 1e-3, "fatol": 1e-14, "maxiter": 120,
+                      "initial_simplex": _simplex(h, z0, ctx)})
 
 
 def _recorder(prob: Problem, h: Hypothesis):
@@ -224,10 +228,6 @@ def _simplex(h: Hypothesis, z0: np.ndarray, ctx: Context) -> np.ndarray:
     if h.name == "stiction":
         # J can be 0: move it in absolute terms through its log
         step[:] = (0.3, 0.6)
-    if h.name == "oscillatory_disturbance":
-        # a sinusoid's cost basin is ~1/T wide in frequency: ln P moves by ~P/T
-        span = float(ctx.t[-1] - ctx.t[0]) or 1.0
-        step[:] = max(0.5 * math.exp(z0[0]) / span, 1e-4)
     pts = [z0]
     for i in range(z0.size):
         z = z0.copy()

@@ -88,6 +88,12 @@ class Hypothesis:
     def describe(self, p: np.ndarray, beta: np.ndarray) -> dict[str, Any]:
         return {k: float(v) for k, v in zip(self.params, p, strict=False)}
 
+    def basin_width(self, ctx: Context, p: np.ndarray) -> float | None:
+        """Width, in the search coordinate, of a parameter's narrow cost basin (a line's
+        period), or ``None``: such a parameter is refined by a bounded scalar search
+        across a few widths, and refitted from scratch when the criterion changes."""
+        return None
+
     def at_bound(self, ctx: Context, p: np.ndarray, rtol: float = 0.01) -> bool:
         """Whether the fit sits at a bound of what the data resolve, and so is never
         named: here, an :attr:`interior_only` fit within ``rtol`` (relative) of an end of
@@ -291,6 +297,11 @@ class OscillatoryDisturbance(Hypothesis):
         # disturbances of a few closed-loop time constants in tightly tuned loops
         f_lp = ctx.f_lp or min(0.4 / ctx.Ts, 5.0 / (2 * math.pi * ctx.tau))
         return min(max(4 * ctx.Ts, 0.5 / f_lp), 0.5 * self._max_period(ctx))
+
+    def basin_width(self, ctx, p):
+        # a sinusoid fit's cost basin is ~1/T wide in frequency: ln P moves by ~P/T
+        span = float(ctx.t[-1] - ctx.t[0]) or 1.0
+        return max(0.5 * float(p[0]) / span, 1e-4)
 
     def grid(self, ctx):
         top, low = self._max_period(ctx), self._min_period(ctx)
