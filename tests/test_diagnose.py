@@ -333,3 +333,23 @@ def test_dead_time_within_the_alignment_range_is_not_physics(deadband_stages):
     assert dt.at_bound(ctx, np.array([ctx.theta + 0.6 * ctx.Ts]))
     assert dt.at_bound(ctx, np.array([ctx.theta - ctx.Ts]))
     assert not dt.at_bound(ctx, np.array([ctx.theta + 1.5 * ctx.Ts]))
+
+
+def test_regulatory_data_without_a_model_is_flagged(stiction_rec, tmp_path, capsys):
+    # no set-point excitation and no model: the identified process can be biased
+    # (experiments/fast_loops.py), and the user is told so in the JSON, the summary and
+    # on stderr; set-point steps (the paper's square wave) or a given model: no warning
+    reg = _rec(setpoint="constant", disturbance="load", disturbance__load_std=1.0)
+    csv = tmp_path / "reg.csv"
+    reg.to_frame()[["t", "SP", "PV", "OP"]].to_csv(csv, index=False)
+    out = tmp_path / "reg.json"
+    assert main(["diagnose", str(csv), "--json", str(out), "--report",
+                 str(tmp_path / "rep")]) == 0
+    res = json.loads(out.read_text())
+    assert res["details"]["setpoint_excitation"] == 0.0
+    assert "regulatory data" in res["details"]["warning"]
+    assert "regulatory data" in capsys.readouterr().err
+    assert "**Warning:** regulatory data" in (tmp_path / "rep" / "summary.md").read_text()
+    assert diagnose(reg, NOM).details.get("warning") is None
+    d = diagnose(stiction_rec)
+    assert d.details["setpoint_excitation"] > 1.0 and d.details.get("warning") is None

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 from ..errors import InputError
 
@@ -32,6 +33,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     print(f"{args.recording}: {d.missing_physics}" + (f" ({params})" if params else "")
           + f"; validation NRMSE {f['nominal']:.3f} -> {f['improved']:.3f}; "
           f"model {d.model.source}; {d.details['seconds']:.1f} s")
+    if d.details.get("warning"):
+        print(f"stictionbench: warning: {d.details['warning']}", file=sys.stderr)
     return 0
 
 

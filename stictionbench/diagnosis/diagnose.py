@@ -43,7 +43,12 @@ from .locate import dominant_periods, mismatch_band, mismatch_windows, noise_flo
 from .model import NominalModel, identify_pi
 from .noise import fit_noise_model
 from .openloop import highpass
-from .process import fit_fopdt, identify_fopdt
+from .process import (
+    MIN_SETPOINT_EXCITATION,
+    fit_fopdt,
+    identify_fopdt,
+    setpoint_excitation,
+)
 
 __all__ = ["Diagnosis", "closed_loop_replay", "compare", "diagnose", "fit", "fit_fopdt",
            "hypothesise", "identify_fopdt", "locate", "validate", "valve_output"]
@@ -446,12 +451,20 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
         "closed_loop_replay": None if cl is None else
         {"pv_nrmse": cl["pv_nrmse"], "op_nrmse": cl["op_nrmse"]},
         "hammerstein": None if ham is None else ham.to_dict(),
+        "setpoint_excitation": setpoint_excitation(cmp.rec),
         "seconds": None,
     }
     if cmp.model.source == "identified":
         details["note"] = ("no --model given: a FOPDT nominal model was identified from "
                            "the recording (OP → PV) and used as the nominal model; the "
                            "valve hypotheses re-identify the process with the valve")
+        if details["setpoint_excitation"] < MIN_SETPOINT_EXCITATION:
+            details["warning"] = (
+                "regulatory data (the set point moved "
+                f"{details['setpoint_excitation']:.2g} standard deviations of the control "
+                "error): OP is the controller's answer to the unmeasured load, so the "
+                "identified process can be biased, and physics missed or wrongly named; "
+                "give --model for a reliable verdict (reports/diagnose/fast_loops.md)")
     if cl is not None:
         details["_cl_arrays"] = cl
     return Diagnosis(

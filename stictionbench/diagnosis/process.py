@@ -70,3 +70,36 @@ def identify_fopdt(rec: Recording, f_hp_factor: float = 1 / 15) -> NominalModel:
     pi = identify_pi(rec)
     return NominalModel(K, tau, theta, pi[0] if pi else None, pi[1] if pi else None, rec.Ts,
                         "identified")
+
+
+#: set-point travel, in standard deviations of the control error, below which a recording
+#: counts as regulatory (no external excitation for the identification)
+MIN_SETPOINT_EXCITATION = 1.0
+
+
+def setpoint_excitation(rec: Recording) -> float:
+    """Set-point travel ``ptp(SP)`` in standard deviations of the control error
+    ``SP − PV`` (0 without an SP column).
+
+    In closed loop without an external excitation OP is the controller's answer to the
+    unmeasured load, and a model identified from OP to PV can be biased however long the
+    record (Ljung 1999, ch. 13: informative experiments in closed loop); set-point steps
+    are such an excitation. ``experiments/fast_loops.py`` shows the bias on simulated
+    regulatory loops.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(400.0)
+    >>> pv = np.sin(t / 7)
+    >>> setpoint_excitation(Recording.from_arrays(t, pv, pv, SP=np.zeros(400)))
+    0.0
+    >>> sp = np.where(t < 200, 0.0, 5.0)
+    >>> round(setpoint_excitation(Recording.from_arrays(t, pv, pv, SP=sp)), 2)
+    1.88
+    """
+    if rec.SP is None:
+        return 0.0
+    sp = np.asarray(rec.SP, float)
+    e = sp - np.asarray(rec.PV, float)
+    return float(np.ptp(sp) / (float(np.std(e)) or 1.0))

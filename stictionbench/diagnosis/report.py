@@ -133,6 +133,7 @@ def summary_markdown(d: Diagnosis) -> str:
         f"- Nominal model ({m.source}): K = {m.gain:.3g}, τ = {m.time_constant:.3g} s, "
         f"θ = {m.dead_time:.3g} s" + (f", PI Kc = {m.kc:.3g}, Ti = {m.ti:.3g} s"
                                       if m.kc is not None else "") + ".",
+        *([f"- **Warning:** {d.details['warning']}."] if d.details.get("warning") else []),
         "",
         "| physics | score (0 = best) | validation NRMSE | improvement | p-value | chosen |",
         "|---|---|---|---|---|---|",
