@@ -353,3 +353,20 @@ def test_regulatory_data_without_a_model_is_flagged(stiction_rec, tmp_path, caps
     assert diagnose(reg, NOM).details.get("warning") is None
     d = diagnose(stiction_rec)
     assert d.details["setpoint_excitation"] > 1.0 and d.details.get("warning") is None
+
+
+def test_comparison_band_keeps_the_harmonics_of_a_limit_cycle():
+    # a long stick-slip record without a model: the FOPDT identified through the sticking
+    # valve has τ inflated by the stick time, and a low-pass at 5/(2πτ) would cut the limit
+    # cycle itself (the verdict then flipped between stiction and an oscillatory
+    # disturbance with one sample more or less); the band keeps its third harmonic
+    from stictionbench.diagnosis.diagnose import HARMONICS_KEPT
+    from stictionbench.diagnosis.locate import oscillation_frequency
+    from stictionbench.diagnosis.openloop import highpass
+
+    rec = sb.simulate("stiction", duration=20000.0, seed=1, sample_time=1.0)
+    cmp = compare(rec)
+    f_osc = oscillation_frequency(highpass(np.asarray(rec.PV), 1.0, cmp.prob.f_hp), 1.0)
+    assert f_osc == pytest.approx(1 / 135, rel=0.1)
+    assert 5.0 / (2 * math.pi * cmp.model.time_constant) < f_osc  # what the rule corrects
+    assert cmp.prob.f_lp == pytest.approx(min(0.4, HARMONICS_KEPT * f_osc))

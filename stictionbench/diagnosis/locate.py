@@ -102,3 +102,23 @@ def tone_periods(r: np.ndarray, rows: np.ndarray, Ts: float, lo: float, hi: floa
     idx = np.flatnonzero(ok[1:-1] & (P[1:-1] >= P[:-2]) & (P[1:-1] >= P[2:])) + 1
     idx = idx[np.argsort(-P[idx])][:n]
     return [float(1.0 / f[i]) for i in idx]
+
+
+def oscillation_frequency(x: np.ndarray, Ts: float, min_ratio: float = 10.0) -> float | None:
+    """Frequency (Hz) of the largest peak of the Welch PSD of ``x`` when it stands at least
+    ``min_ratio`` times above the median PSD (a clear oscillation), else ``None``.
+
+    Examples
+    --------
+    >>> t = np.arange(3000.0)
+    >>> noise = np.random.default_rng(0).standard_normal(3000)
+    >>> x = np.sign(np.sin(2 * np.pi * t / 125)) + 0.1 * noise
+    >>> round(1 / oscillation_frequency(x, 1.0))
+    128
+    >>> oscillation_frequency(np.random.default_rng(1).standard_normal(3000), 1.0) is None
+    True
+    """
+    nper = int(min(512, max(16, x.size // 3)))
+    f, P = welch(x, fs=1.0 / Ts, nperseg=nper)
+    i = int(np.argmax(P[1:])) + 1
+    return float(f[i]) if P[i] >= min_ratio * float(np.median(P[1:])) else None
