@@ -54,13 +54,14 @@ real: venv
 	$(BIN)/python experiments/isdb_noise_model.py --data $(DATA)/isdb
 
 # concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out,
-# with the nominal model, model-free, and with output-error fits for comparison (about 9
-# minutes on 2 cores)
+# with the nominal model, model-free, with output-error fits for comparison, and the
+# verdicts' stability with the records trimmed (about 13 minutes on 2 cores)
 concealed: venv
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --model-free
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --output-error
 	$(BIN)/python experiments/controller_rate_artefact.py
+	$(BIN)/python experiments/verdict_stability.py --trim 7 --jobs 2
 
 lint: venv
 	$(BIN)/ruff check stictionbench tests benchmarks experiments
