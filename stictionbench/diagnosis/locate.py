@@ -105,8 +105,12 @@ def tone_periods(r: np.ndarray, rows: np.ndarray, Ts: float, lo: float, hi: floa
 
 
 def oscillation_frequency(x: np.ndarray, Ts: float, min_ratio: float = 10.0) -> float | None:
-    """Frequency (Hz) of the largest peak of the Welch PSD of ``x`` when it stands at least
-    ``min_ratio`` times above the median PSD (a clear oscillation), else ``None``.
+    """Frequency (Hz) of the largest local maximum of the Welch PSD of ``x`` when it stands
+    at least ``min_ratio`` times above the median PSD (a clear oscillation), else ``None``.
+    The peak must also stand three times above the PSD at and below half its frequency: a
+    drifting load's red spectrum rises towards low frequencies without any oscillation
+    (and the two lowest bins, periods of half the Welch segment or more, are not
+    candidates).
 
     Examples
     --------
@@ -117,8 +121,16 @@ def oscillation_frequency(x: np.ndarray, Ts: float, min_ratio: float = 10.0) -> 
     128
     >>> oscillation_frequency(np.random.default_rng(1).standard_normal(3000), 1.0) is None
     True
+    >>> walk = np.cumsum(np.random.default_rng(2).standard_normal(3000))  # red, no line
+    >>> oscillation_frequency(walk - walk.mean(), 1.0) is None
+    True
     """
     nper = int(min(512, max(16, x.size // 3)))
     f, P = welch(x, fs=1.0 / Ts, nperseg=nper)
-    i = int(np.argmax(P[1:])) + 1
-    return float(f[i]) if P[i] >= min_ratio * float(np.median(P[1:])) else None
+    peaks = np.flatnonzero((P[2:-1] >= P[1:-2]) & (P[2:-1] >= P[3:])) + 2
+    if peaks.size == 0:
+        return None
+    i = int(peaks[np.argmax(P[peaks])])
+    clear = P[i] >= min_ratio * float(np.median(P[1:]))
+    isolated = P[i] >= 3.0 * float(np.max(P[1: i // 2 + 1]))
+    return float(f[i]) if clear and isolated else None
