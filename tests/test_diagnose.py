@@ -360,7 +360,7 @@ def test_comparison_band_keeps_the_harmonics_of_a_limit_cycle():
     # valve has τ inflated by the stick time, and a low-pass at 5/(2πτ) would cut the limit
     # cycle itself (the verdict then flipped between stiction and an oscillatory
     # disturbance with one sample more or less); the band keeps its third harmonic
-    from stictionbench.diagnosis.diagnose import HARMONICS_KEPT
+    from stictionbench.diagnosis.hypotheses import HARMONICS_KEPT
     from stictionbench.diagnosis.locate import oscillation_frequency
     from stictionbench.diagnosis.openloop import highpass
 

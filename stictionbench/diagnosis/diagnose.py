@@ -38,7 +38,7 @@ from .evidence import ALPHA, MIN_IMPROVEMENT, Verdict
 from .evidence import validate as _validate
 from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
 from .hammerstein import HammersteinResult, fit_hammerstein
-from .hypotheses import HYPOTHESES, Context, Nominal
+from .hypotheses import HYPOTHESES, Context, Nominal, lowpass_corner
 from .locate import (
     dominant_periods,
     mismatch_band,
@@ -61,9 +61,6 @@ __all__ = ["Diagnosis", "closed_loop_replay", "compare", "diagnose", "fit", "fit
            "hypothesise", "identify_fopdt", "locate", "validate", "valve_output"]
 
 N_BLOCKS = 5
-#: harmonics of a clear PV oscillation kept in the comparison band (the third carries the
-#: square or triangular shape of a stick-slip cycle)
-HARMONICS_KEPT = 3.5
 #: hypotheses fitted by the closed-loop Hammerstein identification
 VALVE_HYPOTHESES = ("stiction", "deadband")
 
@@ -195,15 +192,8 @@ def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: flo
     n, Ts = len(rec), rec.Ts
     tau, theta = model.time_constant, model.dead_time
     f_hp = hp_factor / (2 * math.pi * (tau + theta))
-    # above ~5 corner frequencies of the process, PV content caused by OP is attenuated
-    # more than five-fold: what is left there is measurement noise; but never below the
-    # third harmonic of a clear oscillation of PV (the shape of a limit cycle, what tells a
-    # stick-slip from a line): an identified τ is inflated by a sticking valve's stick time
-    f_lp = lp_factor / (2 * math.pi * tau)
-    f_osc = oscillation_frequency(highpass(np.asarray(rec.PV, float), Ts, f_hp), Ts)
-    if f_osc is not None:
-        f_lp = max(f_lp, HARMONICS_KEPT * f_osc)
-    f_lp = min(0.4 / Ts, f_lp)
+    f_lp = lowpass_corner(Ts, tau, lp_factor, oscillation_frequency(
+        highpass(np.asarray(rec.PV, float), Ts, f_hp), Ts))
     burn = min(int(math.ceil((theta + 3 * tau) / Ts)), n // 5)
     edges = np.linspace(burn, n, N_BLOCKS + 1).round().astype(int)
     if edges[1] - edges[0] < 40:

@@ -28,6 +28,30 @@ from .openloop import (
     stiction_valve,
 )
 
+#: harmonics of a clear PV oscillation kept in the comparison band (the third carries the
+#: square or triangular shape of a stick-slip cycle)
+HARMONICS_KEPT = 3.5
+
+
+def lowpass_corner(Ts: float, tau: float, lp_factor: float = 5.0,
+                   f_osc: float | None = None) -> float:
+    """Low-pass corner (Hz) of the comparison band: above ``lp_factor`` corner frequencies
+    of the process, PV content caused by OP is attenuated more than ``lp_factor``-fold and
+    what is left is measurement noise; but never below :data:`HARMONICS_KEPT` times the
+    frequency ``f_osc`` of a clear PV oscillation (the shape of a limit cycle, what tells
+    a stick-slip from a line: a τ identified through a sticking valve is inflated by the
+    stick time); at most ``0.4/Ts``.
+
+    Examples
+    --------
+    >>> round(lowpass_corner(1.0, 10.0), 4), round(lowpass_corner(1.0, 100.0, f_osc=0.01), 4)
+    (0.0796, 0.035)
+    """
+    f = lp_factor / (2 * math.pi * tau)
+    if f_osc is not None:
+        f = max(f, HARMONICS_KEPT * f_osc)
+    return min(0.4 / Ts, f)
+
 
 @dataclass
 class Context:
@@ -41,8 +65,8 @@ class Context:
     theta: float
     f_hp: float | None = None
     resid_periods: list[float] = field(default_factory=list)
-    #: low-pass corner (Hz) of the comparison band (``None``: ``5/(2πτ)``, at most
-    #: ``0.4/Ts``)
+    #: low-pass corner (Hz) of the comparison band (``None``: :func:`lowpass_corner`
+    #: without an oscillation)
     f_lp: float | None = None
 
     @property
@@ -295,7 +319,7 @@ class OscillatoryDisturbance(Hypothesis):
         # how OP is recorded between controller updates; fitted by prediction error they
         # are not (experiments/controller_rate_artefact.py), and the τ bound missed
         # disturbances of a few closed-loop time constants in tightly tuned loops
-        f_lp = ctx.f_lp or min(0.4 / ctx.Ts, 5.0 / (2 * math.pi * ctx.tau))
+        f_lp = ctx.f_lp or lowpass_corner(ctx.Ts, ctx.tau)
         return min(max(4 * ctx.Ts, 0.5 / f_lp), 0.5 * self._max_period(ctx))
 
     def basin_width(self, ctx, p):

@@ -75,10 +75,14 @@ def mismatch_band(r: np.ndarray, Ts: float, sigma: float, op: np.ndarray | None 
     return band, info
 
 
+def _psd(x: np.ndarray, Ts: float) -> tuple[np.ndarray, np.ndarray]:
+    """Welch PSD of a signal with segments of a third of it (16 to 512 samples)."""
+    return welch(x, fs=1.0 / Ts, nperseg=int(min(512, max(16, x.size // 3))))
+
+
 def dominant_periods(r: np.ndarray, Ts: float, n: int = 3) -> list[float]:
     """Periods (s) of the ``n`` largest local maxima of the residual's Welch PSD."""
-    nper = int(min(512, max(16, r.size // 3)))
-    f, P = welch(r, fs=1.0 / Ts, nperseg=nper)
+    f, P = _psd(r, Ts)
     peaks = [i for i in range(1, f.size - 1) if P[i] >= P[i - 1] and P[i] >= P[i + 1]]
     peaks.sort(key=lambda i: -P[i])
     return [float(1.0 / f[i]) for i in peaks[:n] if f[i] > 0]
@@ -125,8 +129,7 @@ def oscillation_frequency(x: np.ndarray, Ts: float, min_ratio: float = 10.0) -> 
     >>> oscillation_frequency(walk - walk.mean(), 1.0) is None
     True
     """
-    nper = int(min(512, max(16, x.size // 3)))
-    f, P = welch(x, fs=1.0 / Ts, nperseg=nper)
+    f, P = _psd(x, Ts)
     peaks = np.flatnonzero((P[2:-1] >= P[1:-2]) & (P[2:-1] >= P[3:])) + 2
     if peaks.size == 0:
         return None
