@@ -39,8 +39,9 @@ def lowpass_corner(Ts: float, tau: float, lp_factor: float = 5.0,
     of the process, PV content caused by OP is attenuated more than ``lp_factor``-fold and
     what is left is measurement noise; but never below :data:`HARMONICS_KEPT` times the
     frequency ``f_osc`` of a clear PV oscillation (the shape of a limit cycle, what tells
-    a stick-slip from a line: a τ identified through a sticking valve is inflated by the
-    stick time); at most ``0.4/Ts``.
+    a stick-slip from a line: a τ identified from closed-loop data through a sticking
+    valve can be far too large, 207 s against the true 10 s on the paper's stiction case
+    over 20000 s, and the band then cut the limit cycle itself); at most ``0.4/Ts``.
 
     Examples
     --------
