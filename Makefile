@@ -40,8 +40,8 @@ bench: venv
 	$(BIN)/python -m pytest benchmarks -q -s -m "benchmark" -p no:cacheprovider --benchmark-columns=min,median,mean,rounds
 
 # real plant recordings (needs ../shared/data): batch verdicts, oscillation benchmark,
-# model-free diagnosis of the ISDB stiction loops and the check of its explanation (loop speed
-# against identification, simulated)
+# model-free diagnosis of the ISDB stiction loops and the checks of its explanation (loop speed
+# against identification; set-point excitation and controller rate; simulated)
 DATA ?= ../shared/data
 real: venv
 	$(BIN)/stictionbench compare $(DATA)/isdb $(DATA)/plant --out reports/real --consensus conf/consensus/default.yaml
@@ -49,6 +49,7 @@ real: venv
 	$(BIN)/stictionbench batch $(DATA)/plant --labels $(DATA)/plant/labels.csv --diagnose flagged --json reports/real/plant/batch.json --report reports/real/plant
 	$(BIN)/stictionbench oscillation-benchmark $(DATA)/isdb-oscillation/benchmark.mat --out reports/real/oscillation
 	$(BIN)/python experiments/fast_loops.py
+	$(BIN)/python experiments/regulatory_bias.py
 	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
 	$(BIN)/python experiments/simulated_loops.py
 	$(BIN)/python experiments/isdb_noise_model.py --data $(DATA)/isdb

@@ -54,18 +54,30 @@ VALVES = (("linear", 0.0), ("stiction S=2", 2.0), ("stiction S=4", 4.0))
 DURATION = 3000.0
 DEAD_TIME = 1.0
 STICKY = ("stiction", "deadband")
+#: seconds between the set-point steps of :func:`run_one`'s square wave
+SP_STEP_EVERY = 250.0
 
 
-def run_one(tau: float, valve: str, S: float, seed: int, load: float = 2.0) -> dict:
-    """Simulate one loop (load rms ``load`` PV units) and diagnose it without a model."""
+def run_one(tau: float, valve: str, S: float, seed: int, load: float = 2.0, *,
+            sp_step: float = 0.0, controller_rate: float = 0.2, given: bool = True) -> dict:
+    """Simulate one loop (load rms ``load`` PV units) and diagnose it without a model
+    (and, when ``given``, with the true FOPDT). ``sp_step`` > 0 adds a set-point square
+    wave of that amplitude (PV units, a step every :data:`SP_STEP_EVERY` seconds);
+    ``controller_rate`` is the PI's execution period in seconds."""
     lam = max(DEAD_TIME, 0.5 * tau)
     kc, ti = tau / (lam + DEAD_TIME), min(tau, 4 * (lam + DEAD_TIME))
     ov = [f"process.gain={1.0}", f"process.time_constant={tau}",
           f"process.dead_time={DEAD_TIME}", f"controller.kc={kc:.6g}",
-          f"controller.ti={ti:.6g}", "controller.sample_time=0.2", "sensor=noisy",
+          f"controller.ti={ti:.6g}", f"controller.sample_time={controller_rate:g}",
+          "sensor=noisy",
           "sensor.time_constant=0.0", "sensor.noise_std=0.1", "disturbance=load",
           f"disturbance.load_std={load}", "disturbance.load_time_constant=300.0",
           "setpoint=constant"]
+    if sp_step > 0:
+        times = np.arange(SP_STEP_EVERY, DURATION, SP_STEP_EVERY)
+        steps = ",".join(f"[{t:g},{sp_step * (1 if i % 2 == 0 else -1):g}]"
+                         for i, t in enumerate(times))
+        ov.append(f"setpoint.steps=[{steps}]")
     # the "linear" case's default valve is the paper's low-friction physical valve: the
     # ideal valve (MV = OP) instead, or the Kano valve
     ov += ["valve=kano", f"valve.S={S}", f"valve.J={0.5 * S}"] if S > 0 else ["valve=linear"]
@@ -74,13 +86,17 @@ def run_one(tau: float, valve: str, S: float, seed: int, load: float = 2.0) -> d
     t0 = time.perf_counter()
     free = diagnose(rec)
     seconds = time.perf_counter() - t0
-    given = diagnose(rec, NominalModel(1.0, tau, DEAD_TIME, kc, ti, 1.0))
+    with_model = diagnose(rec, NominalModel(1.0, tau, DEAD_TIME, kc, ti, 1.0)) if given \
+        else None
     ham = free.details.get("hammerstein") or {}
     return {"tau_samples": tau, "valve": valve, "S": S, "seed": seed, "load": load,
-            "diagnosis": free.missing_physics, "diagnosis_model_given": given.missing_physics,
+            "diagnosis": free.missing_physics,
+            "diagnosis_model_given": with_model.missing_physics if given else None,
             "seconds": round(seconds, 2), "fitted_S": ham.get("S"), "fitted_J": ham.get("J"),
             "identified_tau_s": free.model.time_constant,
-            "identified_theta_s": free.model.dead_time, "op_std": float(np.std(rec.OP))}
+            "identified_theta_s": free.model.dead_time, "op_std": float(np.std(rec.OP)),
+            "identified_gain": free.model.gain,
+            "setpoint_excitation": free.details["setpoint_excitation"]}
 
 
 MODES = (("model-free", "diagnosis"), ("model given", "diagnosis_model_given"))
@@ -154,20 +170,34 @@ def figure(tab: pd.DataFrame, out: Path) -> None:
     save_png(fig, out, dpi=110)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=6)
+def parse_args(prog: str, doc: str, argv, seeds: int) -> argparse.Namespace | None:
+    """``--seeds``, ``--jobs`` and ``--out`` of a simulated-loop experiment; None (after
+    a one-line message) when a count is below 1."""
+    ap = argparse.ArgumentParser(prog=prog, description=doc.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=seeds)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default=str(ROOT / "reports" / "diagnose"))
     a = ap.parse_args(argv)
     if a.seeds < 1 or a.jobs < 1:
-        print("fast_loops: --seeds and --jobs must be ≥ 1", file=sys.stderr)
+        print(f"{prog}: --seeds and --jobs must be ≥ 1", file=sys.stderr)
+        return None
+    return a
+
+
+def run_loops(fn, jobs: list[tuple], n_jobs: int, desc: str) -> list[dict]:
+    """``fn(*job)`` for every job on ``n_jobs`` workers, the bar moving as loops finish."""
+    res = Parallel(n_jobs=n_jobs, return_as="generator_unordered")(
+        delayed(fn)(*j) for j in jobs)
+    return list(tqdm(res, total=len(jobs), desc=desc, unit="loop"))
+
+
+def main(argv=None) -> int:
+    a = parse_args("fast_loops", __doc__, argv, seeds=6)
+    if a is None:
         return 2
     jobs = [(tau, v, S, seed) for tau in TAUS for v, S in VALVES for seed in range(a.seeds)]
     t0 = time.perf_counter()
-    res = Parallel(n_jobs=a.jobs, return_as="generator_unordered")(
-        delayed(run_one)(*j) for j in jobs)
-    rows = list(tqdm(res, total=len(jobs), desc="fast loops", unit="loop"))
+    rows = run_loops(run_one, jobs, a.jobs, "fast loops")
     df = pd.DataFrame(rows).sort_values(["tau_samples", "S", "seed"]).reset_index(drop=True)
     df = df.round(6)
     tab = summarise(df)

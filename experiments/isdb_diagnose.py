@@ -47,7 +47,22 @@ def _speed_check() -> list[str]:
     return ["Checked by varying the loop speed and whether the model is given "
             "([fast_loops.md](../fast_loops.md)); an earlier version of this report blamed "
             "the loops' speed (\"τ of a few samples, the valve hidden between samples\"), "
-            "which this check refutes:", "", *findings(pd.read_csv(csv))]
+            "which this check refutes:", "", *findings(pd.read_csv(csv)),
+            *_excitation_check()]
+
+
+def _excitation_check() -> list[str]:
+    """The cause, checked by varying it (``experiments/regulatory_bias.py``: set-point
+    excitation and the PI's rate), when that experiment has run."""
+    csv = ROOT / "reports" / "diagnose" / "regulatory_bias.csv"
+    if not csv.is_file():
+        return []
+    from regulatory_bias import findings, summarise
+    df = pd.read_csv(csv)
+    return ["", "And the cause, checked by varying it ([regulatory_bias.md]"
+            "(../regulatory_bias.md): set-point steps of growing size, and the PI at the "
+            "historian's rate instead of 5× faster, on the slow loops):", "",
+            *findings(df, summarise(df))]
 
 
 def main(argv=None) -> int:

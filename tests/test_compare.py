@@ -134,3 +134,21 @@ def test_hammerstein_methods_fit_each_window_afresh():
         h = fit_hammerstein(rec)
         assert call.value == pytest.approx(h.J if h.stiction or h.sticky else h.S)
         del rec
+
+
+def test_model_based_methods_do_not_rule_a_valve_out_on_regulatory_data():
+    """Without set-point excitation the process identified from OP → PV is biased
+    (experiments/regulatory_bias.py), so a valve not found is inconclusive; with
+    set-point steps the same linear loop is judged: no stiction."""
+    from stictionbench.realdata.compare import METHODS
+
+    kw = dict(duration=1500, seed=4, sample_time=1.0, sensor="noisy", disturbance="load",
+              disturbance__load_std=0.5)
+    reg = sb.simulate("linear", setpoint="constant", **kw)
+    servo = sb.simulate("linear", **kw)
+    for name in ("hammerstein", "delay_est_mv"):
+        call = METHODS[name](sb.Recording.from_arrays(reg.t, reg.PV, reg.OP, SP=reg.SP), "F")
+        assert call.verdict == "inconclusive" and "regulatory data" in call.reason
+    call = METHODS["hammerstein"](sb.Recording.from_arrays(servo.t, servo.PV, servo.OP,
+                                                           SP=servo.SP), "F")
+    assert call.verdict == "no_stiction", call.reason

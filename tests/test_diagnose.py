@@ -336,6 +336,8 @@ def test_dead_time_within_the_alignment_range_is_not_physics(deadband_stages):
 
 
 def test_regulatory_data_without_a_model_is_flagged(stiction_rec, tmp_path, capsys):
+    from stictionbench.diagnosis.process import MIN_SETPOINT_EXCITATION
+
     # no set-point excitation and no model: the identified process can be biased
     # (experiments/fast_loops.py), and the user is told so in the JSON, the summary and
     # on stderr; set-point steps (the paper's square wave) or a given model: no warning
@@ -352,7 +354,8 @@ def test_regulatory_data_without_a_model_is_flagged(stiction_rec, tmp_path, caps
     assert "**Warning:** regulatory data" in (tmp_path / "rep" / "summary.md").read_text()
     assert diagnose(reg, NOM).details.get("warning") is None
     d = diagnose(stiction_rec)
-    assert d.details["setpoint_excitation"] > 1.0 and d.details.get("warning") is None
+    assert d.details["setpoint_excitation"] > MIN_SETPOINT_EXCITATION
+    assert d.details.get("warning") is None
 
 
 def test_comparison_band_keeps_the_harmonics_of_a_limit_cycle():
@@ -370,3 +373,25 @@ def test_comparison_band_keeps_the_harmonics_of_a_limit_cycle():
     assert f_osc == pytest.approx(1 / 135, rel=0.1)
     assert 5.0 / (2 * math.pi * cmp.model.time_constant) < f_osc  # what the rule corrects
     assert cmp.prob.f_lp == pytest.approx(min(0.4, HARMONICS_KEPT * f_osc))
+
+
+def test_setpoint_steps_remove_the_regulatory_bias_of_the_identified_process():
+    """The explanation behind the regulatory-data warning, checked by varying its cause
+    (experiments/regulatory_bias.py in small): the same slow loop under a drifting load,
+    identified from OP → PV without a model, is far off with a still set point and close
+    once the set point steps by about the load's size."""
+    from stictionbench.diagnosis.process import MIN_SETPOINT_EXCITATION, setpoint_excitation
+
+    steps = [[t, 2.0 * (-1) ** i] for i, t in enumerate(range(250, 3000, 250))]
+    kw = dict(process__time_constant=16.0, process__dead_time=1.0, process__gain=1.0,
+              controller__kc=1.6, controller__ti=16.0, controller__sample_time=0.2,
+              sensor__noise_std=0.1, disturbance="load", disturbance__load_std=2.0,
+              disturbance__load_time_constant=300.0, setpoint="constant")
+    still = _rec(**kw)
+    moved = _rec(**kw, setpoint__steps=steps)
+    assert setpoint_excitation(still) == 0.0
+    assert setpoint_excitation(moved) > MIN_SETPOINT_EXCITATION
+    m_still, m_moved = diagnose(still).model, diagnose(moved).model
+    assert abs(math.log(m_moved.time_constant / 16.0)) < 0.3
+    assert m_moved.gain == pytest.approx(1.0, rel=0.25)
+    assert m_still.time_constant > 3 * 16.0

