@@ -107,6 +107,7 @@ def main(argv=None) -> int:
         print(f"{name} ({rec.meta['label']}): {d.missing_physics}; stiction improvement "
               f"{rk['stiction']['improvement']:.0%}")
     df = pd.DataFrame(rows)
+    seconds_col = df.pop("seconds")
     st = df[df.label == "stiction"]
     other = df[df.label != "stiction"]
     improved = st[st.stiction_improvement > 0]
@@ -119,7 +120,6 @@ def main(argv=None) -> int:
         f"(Wilson 95 % {lo:.0%}–{hi:.0%}; goal ≥ 8 of 10);",
         f"- non-stiction loops named `stiction`: **{len(false)} of {len(other)}**"
         + (f" ({', '.join(false.loop)})" if len(false) else "") + " (goal 0);",
-        f"- time per loop: median {df.seconds.median():.1f} s, max {df.seconds.max():.1f} s.",
         "",
         "Each loop: `diagnose` without `--model` (FOPDT identified from OP → PV; for the "
         "valve hypotheses the process is re-identified from the estimated valve output). "
@@ -139,6 +139,9 @@ def main(argv=None) -> int:
         *_speed_check(), ""]
     write_text(out / "summary.md", "\n".join(lines))
     write_text(out / "summary.csv", df.to_csv(index=False, lineterminator="\n"))
+    # timings differ from run to run: printed, never written (byte-identical reports);
+    # the speed requirement is measured by benchmarks/test_bench_diagnose.py
+    print(f"time per loop: median {seconds_col.median():.1f} s, max {seconds_col.max():.1f} s")
     return 0
 
 
