@@ -59,18 +59,20 @@ SP_STEP_EVERY = 250.0
 
 
 def run_one(tau: float, valve: str, S: float, seed: int, load: float = 2.0, *,
-            sp_step: float = 0.0, controller_rate: float = 0.2, given: bool = True) -> dict:
+            sp_step: float = 0.0, controller_rate: float = 0.2, given: bool = True,
+            noise: float = 0.1) -> dict:
     """Simulate one loop (load rms ``load`` PV units) and diagnose it without a model
     (and, when ``given``, with the true FOPDT). ``sp_step`` > 0 adds a set-point square
     wave of that amplitude (PV units, a step every :data:`SP_STEP_EVERY` seconds);
-    ``controller_rate`` is the PI's execution period in seconds."""
+    ``controller_rate`` is the PI's execution period in seconds; ``noise`` the standard
+    deviation of the white PV measurement noise."""
     lam = max(DEAD_TIME, 0.5 * tau)
     kc, ti = tau / (lam + DEAD_TIME), min(tau, 4 * (lam + DEAD_TIME))
     ov = [f"process.gain={1.0}", f"process.time_constant={tau}",
           f"process.dead_time={DEAD_TIME}", f"controller.kc={kc:.6g}",
           f"controller.ti={ti:.6g}", f"controller.sample_time={controller_rate:g}",
           "sensor=noisy",
-          "sensor.time_constant=0.0", "sensor.noise_std=0.1", "disturbance=load",
+          "sensor.time_constant=0.0", f"sensor.noise_std={noise:g}", "disturbance=load",
           f"disturbance.load_std={load}", "disturbance.load_time_constant=300.0",
           "setpoint=constant"]
     if sp_step > 0:
