@@ -53,7 +53,7 @@ from concealed_families import CLASSES, DURATION, FAMILIES, make_recording  # no
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.evidence import select  # noqa: E402
 from stictionbench.io import atomic_directory, read_recording  # noqa: E402
-from stictionbench.rates import rate_cell, wilson  # noqa: E402
+from stictionbench.rates import rate_text, wilson  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
@@ -153,21 +153,21 @@ def table(df: pd.DataFrame, pred: pd.Series) -> pd.DataFrame:
     for (fam, cls, lvl), g in df.groupby(["family", "class", "level"], sort=False):
         ok = int((pred[g.index] == cls).sum())
         e = err[g.index].dropna()
-        rows.append({"family": fam, "class": cls, "level": lvl, "named": rate_cell(ok, len(g)),
+        rows.append({"family": fam, "class": cls, "level": lvl, "named": rate_text(ok, len(g)),
                      "rate": ok / len(g),
                      "median parameter error": f"{e.median():.0%}" if len(e) else "–"})
     return pd.DataFrame(rows)
 
 
 def _named(df: pd.DataFrame, pred: pd.Series, sel: pd.Series) -> str:
-    return rate_cell(int((pred[sel] == df["class"][sel]).sum()), int(sel.sum()))
+    return rate_text(int((pred[sel] == df["class"][sel]).sum()), int(sel.sum()))
 
 
 def none_rates(df: pd.DataFrame, pred: pd.Series) -> list[str]:
     lines = []
     for lvl in (1, 2):
         g = df[(df["class"] == "none") & (df.level == lvl)]
-        lines.append(f"level {lvl}: {rate_cell(int((pred[g.index] != 'none').sum()), len(g))}")
+        lines.append(f"level {lvl}: {rate_text(int((pred[g.index] != 'none').sum()), len(g))}")
     return lines
 
 
@@ -184,9 +184,9 @@ def lofo(df: pd.DataFrame) -> tuple[pd.DataFrame, pd.Series]:
             gn = g[g["class"] == "none"]
             rows.append({"held-out family": fam, "level": lvl, "alpha": alpha,
                          "min_improvement": mi,
-                         "named correctly": rate_cell(int((pred[g.index] == g["class"]).sum()),
+                         "named correctly": rate_text(int((pred[g.index] == g["class"]).sum()),
                                                  len(g)),
-                         "none called physics": rate_cell(int((pred[gn.index] != "none").sum()),
+                         "none called physics": rate_text(int((pred[gn.index] != "none").sum()),
                                                      len(gn))})
     return pd.DataFrame(rows), pred
 
@@ -267,7 +267,7 @@ def family_rates(df: pd.DataFrame, pred: pd.Series) -> list[str]:
             h = (df.family == fam) & (df.level == lvl)
             gn = h & (df["class"] == "none")
             lines.append(f"- {fam}, level {lvl}: named {_named(df, pred, h)}; none called "
-                         f"physics {rate_cell(int((pred[gn] != 'none').sum()), int(gn.sum()))}")
+                         f"physics {rate_text(int((pred[gn] != 'none').sum()), int(gn.sum()))}")
     return lines
 
 

@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 
 from stictionbench.diagnosis import NominalModel, diagnose  # noqa: E402
 from stictionbench.io import write_text  # noqa: E402
-from stictionbench.rates import rate_cell  # noqa: E402
+from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -117,7 +117,7 @@ def summarise(df: pd.DataFrame) -> pd.DataFrame:
             for label, names in (("stiction named", ("stiction",)),
                                  ("sticky valve named", STICKY)):
                 k, n = _rate(sub, col, names)
-                row[label] = rate_cell(k, n)
+                row[label] = rate_text(k, n)
                 row[f"{label} rate"] = k / n
             row["answers"] = ", ".join(f"{a} {c}" for a, c in
                                        sub[col].value_counts().sort_index().items())
@@ -135,13 +135,13 @@ def findings(df: pd.DataFrame) -> list[str]:
         for label, sel in (("τ ≤ 2 samples", st["tau_samples"] <= 2),
                            ("τ ≥ 8 samples", st["tau_samples"] >= 8)):
             k, n = _rate(st[sel], col, STICKY)
-            parts.append(f"{label}: {rate_cell(k, n)}")
+            parts.append(f"{label}: {rate_text(k, n)}")
         lin = df[df["S"] == 0]
         k, n = _rate(lin, col, STICKY)
         k_any = int((lin[col] != "none").sum())
         out.append(f"- {mode}: sticky valve named on {'; '.join(parts)}; ideal valves "
-                   f"called sticky {rate_cell(k, n)}, any physics named on them "
-                   f"{rate_cell(k_any, n)}.")
+                   f"called sticky {rate_text(k, n)}, any physics named on them "
+                   f"{rate_text(k_any, n)}.")
     slow = df["tau_samples"] >= 8
     theta = {k: df[slow & sel]["identified_theta_s"].median()
              for k, sel in (("stiction", df["S"] > 0), ("linear", df["S"] == 0))}

@@ -43,7 +43,7 @@ from fast_loops import DEAD_TIME, STICKY, VALVES, parse_args, run_loops, run_one
 
 from stictionbench.diagnosis.process import MIN_SETPOINT_EXCITATION  # noqa: E402
 from stictionbench.io import write_text  # noqa: E402
-from stictionbench.rates import rate_cell  # noqa: E402
+from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
@@ -97,10 +97,10 @@ def summarise(df: pd.DataFrame) -> pd.DataFrame:
             "ideal valve: τ / true τ": round(float(lin_tau.median()), 2),
             "ideal valve: θ s (true 1)": round(float(lin["identified_theta_s"].median()), 1),
             "stiction valves: θ s": round(float(st["identified_theta_s"].median()), 1),
-            "sticky valve named": rate_cell(k_st, len(st)),
+            "sticky valve named": rate_text(k_st, len(st)),
             "sticky rate": k_st / len(st),
-            "ideal valves: any physics named": rate_cell(k_lin, len(lin)),
-            "ideal valves: sticky named": rate_cell(int(lin["diagnosis"].isin(STICKY).sum()),
+            "ideal valves: any physics named": rate_text(k_lin, len(lin)),
+            "ideal valves: sticky named": rate_text(int(lin["diagnosis"].isin(STICKY).sum()),
                                                     len(lin)),
         })
     return pd.DataFrame(rows)
@@ -153,7 +153,7 @@ def _false_sticky(df: pd.DataFrame) -> str:
         return int(sub["diagnosis"].isin(STICKY).sum())
 
     def cell(sub: pd.DataFrame) -> str:
-        return rate_cell(k(sub), len(sub))
+        return rate_text(k(sub), len(sub))
 
     fast, slow = (above[above["controller_period_s"] == r] for r in (0.2, 1.0))
     quiet = lin[(lin["pv_noise"] < NOISE) & (lin["controller_period_s"] == 0.2)]

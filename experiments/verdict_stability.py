@@ -33,7 +33,7 @@ from concealed import generate  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.io import read_recording, write_text  # noqa: E402
-from stictionbench.rates import rate_cell  # noqa: E402
+from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
@@ -75,11 +75,11 @@ def main(argv=None) -> int:
              .sort_values("recordings", ascending=False, kind="stable"))
     by_class = pd.DataFrame([
         {"class": c, "recordings": len(s),
-         "verdict changed": rate_cell(int(flip[s.index].sum()), len(s)),
-         "named correctly, full record": rate_cell(int((s["predicted_default"] == c).sum()),
+         "verdict changed": rate_text(int(flip[s.index].sum()), len(s)),
+         "named correctly, full record": rate_text(int((s["predicted_default"] == c).sum()),
                                                len(s)),
          f"named correctly, first {a.trim} samples dropped":
-             rate_cell(int((s["predicted_trimmed"] == c).sum()), len(s))}
+             rate_text(int((s["predicted_trimmed"] == c).sum()), len(s))}
         for c, s in df.groupby("class", sort=True)])
     n_ok = int((df["predicted_default"] == df["class"]).sum())
     n_ok_t = int((df["predicted_trimmed"] == df["class"]).sum())
@@ -89,9 +89,9 @@ def main(argv=None) -> int:
         "of `results.csv` (with its nominal model) diagnosed again without its first "
         f"{a.trim} samples, which moves every training/validation block boundary. "
         "Package defaults; nothing tuned.", "",
-        f"- verdicts changed: **{rate_cell(int(flip.sum()), len(df))}**;",
-        f"- named correctly: full records {rate_cell(n_ok, len(df))}, trimmed "
-        f"{rate_cell(n_ok_t, len(df))}.", "",
+        f"- verdicts changed: **{rate_text(int(flip.sum()), len(df))}**;",
+        f"- named correctly: full records {rate_text(n_ok, len(df))}, trimmed "
+        f"{rate_text(n_ok_t, len(df))}.", "",
         "Which verdicts change into which:", "", to_markdown(pairs), "",
         "Per class:", "", to_markdown(by_class), "",
         "A verdict that changes with where the record starts is a borderline one; the "

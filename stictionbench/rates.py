@@ -48,23 +48,6 @@ def wilson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
     return lo, hi
 
 
-def rate_cell(k: int, n: int, level: float = 0.95) -> str:
-    """``"22/50 (44%; 31%–58%)"``: a count, its rate and its Wilson interval (``"–"`` for
-    ``n = 0``), the table cell of the experiment reports.
-
-    Examples
-    --------
-    >>> rate_cell(22, 50)
-    '22/50 (44%; 31%–58%)'
-    >>> rate_cell(0, 0)
-    '–'
-    """
-    if n <= 0:
-        return "–"
-    lo, hi = wilson(k, n, level)
-    return f"{k}/{n} ({k / n:.0%}; {lo:.0%}–{hi:.0%})"
-
-
 def rate_text(k: int, n: int, level: float = 0.95) -> str:
     """``"22/50 = 44 % [31, 58]"``: a count, its rate and its Wilson interval in per cent."""
     if n <= 0:
