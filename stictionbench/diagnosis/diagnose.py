@@ -470,7 +470,7 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
                 f"{details['setpoint_excitation']:.2g} standard deviations of the control "
                 "error): OP is the controller's answer to the unmeasured load, so the "
                 "identified process can be biased, and physics missed or wrongly named; "
-                "give --model for a reliable verdict (reports/diagnose/fast_loops.md)")
+                "give --model for a reliable verdict (reports/diagnose/regulatory_bias.md)")
     if cl is not None:
         details["_cl_arrays"] = cl
     return Diagnosis(

@@ -89,8 +89,8 @@ def setpoint_excitation(rec: Recording) -> float:
     In closed loop without an external excitation OP is the controller's answer to the
     unmeasured load, and a model identified from OP to PV can be biased however long the
     record (Ljung 1999, ch. 13: informative experiments in closed loop); set-point steps
-    are such an excitation. ``experiments/fast_loops.py`` shows the bias on simulated
-    regulatory loops.
+    are such an excitation. ``experiments/regulatory_bias.py`` shows the bias on
+    simulated loops, and how set-point steps remove it.
 
     Examples
     --------
