@@ -283,6 +283,12 @@ def test_select_rule_nested_and_thresholds():
     assert select(rows, 1e-6, alpha=0.01, min_improvement=0.4) == "none"
     rows[1]["parameters"]["J"] = 0.05
     assert select(rows, 1e-6, alpha=0.01, min_improvement=0.05) == "deadband"
+    # one family: a dead band named alone still needs the slip-jump test, and a stiction
+    # extension whose J = 0 is rejected (with J a real part of S) makes it stiction
+    rows[1]["parameters"]["J"] = 1.0
+    rows[1]["improvement"] = 0.02
+    assert select(rows, 1e-6, alpha=0.01, min_improvement=0.05) == "stiction"
+    assert select(rows, 0.2, alpha=0.01, min_improvement=0.05) == "deadband"
 
 
 def test_select_never_names_a_fit_on_a_search_bound():

@@ -22,8 +22,8 @@ into its own, more flexible, noise model (Ljung, *System Identification*, 1999, 
   test);
 - **across families**: among the significant ones, the lowest BIC of the innovations on
   the training plus the validation blocks wins;
-- **nested physics**: stiction contains the dead band (``J = 0``): when both are
-  significant, stiction is named only when the ``1 − alpha`` interval of the slip jump
+- **nested physics**: stiction contains the dead band (``J = 0``): when either is
+  named, stiction is named only when the ``1 − alpha`` interval of the slip jump
   ``J`` excludes zero (the likelihood-ratio test of ``J = 0``) and the fitted ``J`` is
   at least :data:`MIN_SLIP_FRACTION` of ``S`` (a resolution: with thousands of samples a
   slip of a few per cent of ``S`` becomes "significant" against the small model error
@@ -181,7 +181,7 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
     a search-limited range, never named) and ``raw_score`` (BIC; or the
     ranking's ``score``, the same up to a constant), and the
     p-value of ``J = 0``: the significant hypothesis of lowest BIC; stiction and dead band
-    (nested) by the slip-jump test when both are significant (stiction when ``J = 0`` is
+    (nested) by the slip-jump test when either is the pick (stiction when ``J = 0`` is
     rejected and the fitted ``J`` is at least ``min_slip_fraction`` of ``S``). Benchmarks
     re-run it to set the thresholds on one generator family and test on another."""
     sig = {r["physics"] for r in rows if r["physics"] != "none"
@@ -190,8 +190,10 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
     pick = min((r for r in rows if r["physics"] in sig),
                key=lambda r: r.get("raw_score", r.get("score", 0.0)),
                default={"physics": "none"})["physics"]
-    if pick in ("stiction", "deadband") and {"stiction", "deadband"} <= sig \
-            and slip_jump_p is not None:
+    # the nested pair is one family: once either member is named, the slip-jump test
+    # decides between them, whichever of the two passed its own test against the nominal
+    # (a dead band whose stiction extension needs J ≠ 0 is stiction)
+    if pick in ("stiction", "deadband") and slip_jump_p is not None:
         st = next(r for r in rows if r["physics"] == "stiction")["parameters"]
         big = st.get("J", 0.0) >= min_slip_fraction * st.get("S", 0.0)
         pick = "stiction" if slip_jump_p < alpha and big else "deadband"
