@@ -333,7 +333,13 @@ def summary(df: pd.DataFrame, tuned: tuple[float, float], lofo_tab: pd.DataFrame
     ]
     lines += family_rates(df, p_tuned)
     lines += ["", "## Per class, level and family (leave-one-family-out thresholds)", "",
-              to_markdown(wide), "", "Median relative error of the class's main parameter "
+              to_markdown(wide), ""]
+    if not (args.model_free or args.output_error):
+        lines += ["The sticky valves missed here, checked against one cause by varying it "
+                  "(the same recordings with the controller's period changed to the "
+                  "historian's): [stiction_controller_rate.md](stiction_controller_rate.md).",
+                  ""]
+    lines += ["Median relative error of the class's main parameter "
               "where it was named (LOFO):", "",
               to_markdown(per.pivot_table(index=["class", "level"], columns="family",
                                           values="median parameter error", aggfunc="first")

@@ -108,10 +108,10 @@ def _truth(c: Case, rng: np.random.Generator) -> dict:
     return {}
 
 
-def _sim_overrides(c: Case) -> list[str]:
+def _sim_overrides(c: Case, controller_s: float | None = None) -> list[str]:
+    rate = controller_s or (0.2 if c.family == "sim_physical" else 0.5)
     ov = {"process.gain": c.K, "process.time_constant": c.tau, "process.dead_time": c.theta,
-          "controller.kc": c.kc, "controller.ti": c.ti,
-          "controller.sample_time": 0.2 if c.family == "sim_physical" else 0.5,
+          "controller.kc": c.kc, "controller.ti": c.ti, "controller.sample_time": rate,
           "sensor": "noisy", "sensor.time_constant": 0.0, "sensor.noise_std": c.noise,
           "valve": "linear", "disturbance": "load", "disturbance.load_std": c.load,
           "disturbance.load_time_constant": 500.0}
@@ -142,9 +142,9 @@ def _sim_overrides(c: Case) -> list[str]:
     return out
 
 
-def _simulate_family(c: Case) -> dict[str, np.ndarray]:
+def _simulate_family(c: Case, controller_s: float | None = None) -> dict[str, np.ndarray]:
     sim_seed = 10_000 * FAMILIES.index(c.family) + 1000 * c.level + c.seed
-    ov = _sim_overrides(c)
+    ov = _sim_overrides(c, controller_s)
     if c.cls == "saturation":
         base = simulate("linear", duration=DURATION, seed=sim_seed, sample_time=1.0,
                         overrides=ov)
@@ -250,9 +250,14 @@ def _lsim_family(c: Case) -> dict[str, np.ndarray]:
     return _lsim_loop(c, np.random.default_rng(seed))
 
 
-def make_recording(family: str, cls: str, level: int, seed: int) -> tuple[Case,
-                                                                          dict[str, np.ndarray]]:
-    """Draw a case of ``family`` and simulate it: ``(case, {t, SP, PV, OP})``."""
+def make_recording(family: str, cls: str, level: int, seed: int,
+                   controller_s: float | None = None) -> tuple[Case, dict[str, np.ndarray]]:
+    """Draw a case of ``family`` and simulate it: ``(case, {t, SP, PV, OP})``.
+    ``controller_s`` replaces the family's controller period (the two ``sim_`` families
+    only; ``lsim_choudhury`` steps its whole loop every 0.5 s)."""
     c = draw(family, cls, level, seed)
-    sig = _lsim_family(c) if family == "lsim_choudhury" else _simulate_family(c)
-    return c, sig
+    if family == "lsim_choudhury":
+        if controller_s is not None:
+            raise ValueError("lsim_choudhury has no separate controller period")
+        return c, _lsim_family(c)
+    return c, _simulate_family(c, controller_s)

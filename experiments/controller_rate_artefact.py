@@ -18,7 +18,6 @@ import math
 import sys
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,20 +30,14 @@ from stictionbench.diagnosis import NominalModel, diagnose  # noqa: E402
 from stictionbench.io import write_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
-from stictionbench.sim import simulate  # noqa: E402
 
 SEEDS = (4, 11, 2, 7)
 RATES = (0.5, 1.0, 0.1)
 
 
 def one(seed: int, rate: float) -> dict:
-    c = cf.draw("sim_he", "none", 2, seed)
-    ov = [o for o in cf._sim_overrides(c) if not o.startswith("controller.sample_time")]
-    rec = simulate("linear", duration=cf.DURATION, seed=10_000 + 2000 + seed, sample_time=1.0,
-                   overrides=[*ov, f"controller.sample_time={rate}"])
-    q = 0.5 * c.noise  # the family's historian quantisation
-    r = Recording.from_arrays(rec.t, np.round(np.asarray(rec.PV) / q) * q,
-                              np.round(np.asarray(rec.OP) / 0.05) * 0.05, SP=rec.SP)
+    c, sig = cf.make_recording("sim_he", "none", 2, seed, controller_s=rate)
+    r = Recording.from_arrays(sig["t"], sig["PV"], sig["OP"], SP=sig["SP"])
     row = {"seed": seed, "tau_s": round(c.tau, 1), "controller_s": rate}
     for label, pem in (("output_error", False), ("prediction_error", True)):
         d = diagnose(r, NominalModel(c.K, c.tau, c.theta, c.kc, c.ti, 1.0), pem=pem)

@@ -172,13 +172,14 @@ def figure(tab: pd.DataFrame, out: Path) -> None:
     save_png(fig, out, dpi=110)
 
 
-def parse_args(prog: str, doc: str, argv, seeds: int) -> argparse.Namespace | None:
-    """``--seeds``, ``--jobs`` and ``--out`` of a simulated-loop experiment; None (after
-    a one-line message) when a count is below 1."""
+def parse_args(prog: str, doc: str, argv, seeds: int,
+               out: Path = ROOT / "reports" / "diagnose") -> argparse.Namespace | None:
+    """``--seeds``, ``--jobs`` and ``--out`` (default ``out``) of a simulated-loop
+    experiment; None (after a one-line message) when a count is below 1."""
     ap = argparse.ArgumentParser(prog=prog, description=doc.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=seeds)
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", default=str(ROOT / "reports" / "diagnose"))
+    ap.add_argument("--out", default=str(out))
     a = ap.parse_args(argv)
     if a.seeds < 1 or a.jobs < 1:
         print(f"{prog}: --seeds and --jobs must be ≥ 1", file=sys.stderr)
