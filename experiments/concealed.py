@@ -48,7 +48,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from concealed_families import CLASSES, DURATION, FAMILIES, make_recording  # noqa: E402
+from concealed_families import (  # noqa: E402
+    CLASSES,
+    DURATION,
+    FAMILIES,
+    make_recording,
+    nominal_model,
+)
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.evidence import select  # noqa: E402
@@ -77,10 +83,11 @@ def generate(cls: str, level: int, seed: int, out: Path,
     name = f"{family}_L{level}_{cls}_{seed:02d}"
     csv = Path(out) / f"{name}.csv"
     pd.DataFrame({k: sig[k] for k in ("t", "SP", "PV", "OP")}).to_csv(csv, index=False)
-    model = Path(out) / f"{name}.yaml"
+    model, m = Path(out) / f"{name}.yaml", nominal_model(c)
     model.write_text(
-        f"process: {{gain: {c.K:.6g}, time_constant: {c.tau:.6g}, dead_time: {c.theta:.6g}}}\n"
-        f"controller: {{kc: {c.kc:.6g}, ti: {c.ti:.6g}}}\nsample_time: 1.0\n")
+        f"process: {{gain: {m.gain:.6g}, time_constant: {m.time_constant:.6g}, "
+        f"dead_time: {m.dead_time:.6g}}}\n"
+        f"controller: {{kc: {m.kc:.6g}, ti: {m.ti:.6g}}}\nsample_time: 1.0\n")
     return {"name": name, "family": family, "class": cls, "level": level, "seed": seed,
             "csv": str(csv), "model": str(model), "truth": c.truth, "effect": c.effect,
             "noise_frac": c.noise_frac}

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import cont2discrete
 
+from stictionbench.diagnosis import NominalModel
 from stictionbench.sim import simulate
 from stictionbench.sim.valves import PhysicalValve
 
@@ -85,6 +86,14 @@ def draw(family: str, cls: str, level: int, seed: int) -> Case:
              noise_frac * mean_step, noise_frac, load, effect)
     c.truth = _truth(c, rng)
     return c
+
+
+def nominal_model(c: Case) -> NominalModel:
+    """The nominal model the diagnosis is given: the case's plant and PI at the six
+    significant digits of the benchmark's model YAML (``concealed.generate``), so that a
+    re-generated recording is diagnosed exactly as in the benchmark."""
+    K, tau, theta, kc, ti = (float(f"{v:.6g}") for v in (c.K, c.tau, c.theta, c.kc, c.ti))
+    return NominalModel(K, tau, theta, kc, ti, 1.0)
 
 
 def _truth(c: Case, rng: np.random.Generator) -> dict:

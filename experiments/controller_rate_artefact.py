@@ -26,7 +26,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import concealed_families as cf  # noqa: E402
 
-from stictionbench.diagnosis import NominalModel, diagnose  # noqa: E402
+from stictionbench.diagnosis import diagnose  # noqa: E402
 from stictionbench.io import write_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -40,7 +40,7 @@ def one(seed: int, rate: float) -> dict:
     r = Recording.from_arrays(sig["t"], sig["PV"], sig["OP"], SP=sig["SP"])
     row = {"seed": seed, "tau_s": round(c.tau, 1), "controller_s": rate}
     for label, pem in (("output_error", False), ("prediction_error", True)):
-        d = diagnose(r, NominalModel(c.K, c.tau, c.theta, c.kc, c.ti, 1.0), pem=pem)
+        d = diagnose(r, cf.nominal_model(c), pem=pem)
         osc = {x["physics"]: x for x in d.ranking}["oscillatory_disturbance"]
         row |= {f"{label}": d.missing_physics,
                 f"{label}_oscillation_p": osc["p_value"],

@@ -34,10 +34,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from concealed_families import make_recording  # noqa: E402
+from concealed_families import make_recording, nominal_model  # noqa: E402
 from fast_loops import parse_args, run_loops  # noqa: E402
 
-from stictionbench.diagnosis import NominalModel, diagnose  # noqa: E402
+from stictionbench.diagnosis import diagnose  # noqa: E402
 from stictionbench.io import write_text  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
@@ -55,9 +55,7 @@ def one(family: str, cls: str, level: int, seed: int, period: float | None) -> d
     when None) and diagnose it with the true model."""
     c, sig = make_recording(family, cls, level, seed, controller_s=period)
     rec = Recording.from_arrays(sig["t"], sig["PV"], sig["OP"], SP=sig["SP"], warn=False)
-    # the model as the benchmark's YAML holds it (six significant digits)
-    d = diagnose(rec, NominalModel(*(float(f"{v:.6g}") for v in (c.K, c.tau, c.theta, c.kc,
-                                                                   c.ti)), 1.0))
+    d = diagnose(rec, nominal_model(c))
     h = d.details.get("hammerstein") or {}
     row = {"family": family, "class": cls, "level": level, "seed": seed,
            "controller_s": period or DEFAULT_PERIOD[family], "diagnosis": d.missing_physics,
