@@ -41,7 +41,8 @@ bench: venv
 
 # real plant recordings (needs ../shared/data): batch verdicts, oscillation benchmark,
 # model-free diagnosis of the ISDB stiction loops and the checks of its explanation (loop speed
-# against identification; set-point excitation and controller rate; simulated)
+# against identification; set-point excitation and controller rate; simulated; historian
+# compression)
 DATA ?= ../shared/data
 real: venv
 	$(BIN)/stictionbench compare $(DATA)/isdb $(DATA)/plant --out reports/real --consensus conf/consensus/default.yaml
@@ -52,6 +53,7 @@ real: venv
 	$(BIN)/python experiments/regulatory_bias.py
 	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
 	$(BIN)/python experiments/simulated_loops.py
+	$(BIN)/python experiments/compression.py --data $(DATA)
 	$(BIN)/python experiments/isdb_noise_model.py --data $(DATA)/isdb
 
 # concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out,

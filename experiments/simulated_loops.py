@@ -48,8 +48,8 @@ CASES = ("linear", "tight", "disturbance", "stiction")
 SEED0 = 1000
 
 
-def one_loop(i: int, mode: str) -> dict:
-    """Every published method's call on simulated loop ``i`` in ``mode``."""
+def make_loop(i: int, mode: str) -> tuple[sb.Recording, str]:
+    """Simulated loop ``i`` in ``mode`` (t, PV, OP, SP; MV withheld) and its case name."""
     case = CASES[i % 4]
     kano = i % 5 == 4
     kw = {"valve": "kano", "valve__S": 2.0 + i % 7, "valve__J": 1.0} if kano else {}
@@ -60,9 +60,15 @@ def one_loop(i: int, mode: str) -> dict:
     label = "stiction" if case == "stiction" or kano else "no_stiction"
     rec = sb.Recording.from_arrays(rec.t, rec.PV, rec.OP, SP=rec.SP,
                                    meta={"label": label, "group": f"{mode}_{i:02d}"})
+    return rec, case + ("+kano" if kano else "")
+
+
+def one_loop(i: int, mode: str) -> dict:
+    """Every published method's call on simulated loop ``i`` in ``mode``."""
+    rec, case = make_loop(i, mode)
     calls = window_calls(rec, f"{mode}_{i:02d}", methods=PUBLISHED)
     calls["loop_type"] = "?"
-    calls["case"] = case + ("+kano" if kano else "")
+    calls["case"] = case
     calls["mode"] = mode
     return calls
 

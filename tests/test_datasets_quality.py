@@ -31,6 +31,12 @@ from stictionbench.realdata.quality import (
     release_holds,
     screen,
 )
+from stictionbench.sim.measurement import (
+    boxcar_compress,
+    compress_to_share,
+    held_share,
+    historian_compression,
+)
 
 ISDB_LOOPS = {"CHEM1", "CHEM2", "CHEM10", "CHEM11", "CHEM12", "CHEM13", "CHEM23", "CHEM24",
               "CHEM29", "PAP2", "PAP4", "PAP5", "PAP7", "PAP9"}
@@ -263,6 +269,42 @@ def test_compressed_signal(clean):
     rep = screen(_rec(np.interp(k, keep, pv[keep]), np.interp(k, keep, op[keep])))
     assert rep.flags["linear_frac"] == pytest.approx(0.75, abs=0.01)
     assert rep.usable and rep.flags["score_compression"] < 0.25
+
+
+def test_historian_boxcar_model(clean):
+    """The exception historian of experiments/compression.py: every read-back value is
+    within the dead band of the truth, the dead band is set for the asked hold share,
+    tags are compressed independently, and a share of 1 is refused."""
+    pv, op = clean
+    for share in (0.3, 0.7):
+        c = compress_to_share(pv, share)
+        assert held_share(c) == pytest.approx(share, abs=0.01)
+        band = np.min(np.abs(np.diff(c)[np.diff(c) != 0]))  # every stored jump exceeds it
+        assert np.max(np.abs(c - pv)) <= band
+    assert np.max(np.abs(boxcar_compress(pv, 0.5) - pv)) <= 0.5
+    out = historian_compression(_rec(pv, op), 0.6)
+    assert held_share(out.PV) == pytest.approx(0.6, abs=0.01)
+    assert held_share(out.OP) == pytest.approx(0.6, abs=0.01)
+    assert held_fraction(out.PV, out.OP) < 0.6  # independent tags: fewer joint holds
+    with pytest.raises(InputError, match="below 1"):
+        compress_to_share(pv, 1.0)
+
+
+def test_one_tag_compressed(clean):
+    """A PV compressed on its own (OP intact) is not a PV-and-OP hold: the record is not
+    flagged compressed, a warning names the tag, and only ``joint=False`` bridges it."""
+    pv, op = clean
+    rec = _rec(compress_to_share(pv, 0.5), op)
+    rep = screen(rec)
+    assert rep.usable and not rep.flags["compressed"]
+    assert rep.flags["PV_compressed_frac"] == pytest.approx(0.5, abs=0.02)
+    assert any("historian compression of PV alone" in w for w in rep.warnings)
+    assert release_holds(rec)[1] == 0
+    bridged, k = release_holds(rec, joint=False)
+    assert k > 0.3 * pv.size and held_share(bridged.PV) < 0.05
+    assert np.array_equal(bridged.OP, op)
+    # a saturated OP holds at its limit: not counted as compression
+    assert screen(_rec(pv, np.minimum(op, 52.0))).flags["OP_compressed_frac"] < 0.01
 
 
 def test_saturated_op(clean):

@@ -44,7 +44,13 @@ Choices and why:
   sample-to-sample move is left out of the held share (it holds because it cannot
   resolve smaller moves), and one whose quantum exceeds 1 % of that move is left out
   of the linear share (equal successive steps then happen by chance); when every
-  signal is left out, the held share is reported but not judged.
+  signal is left out, the held share is reported but not judged. A tag compressed on
+  its own (``PV_compressed_frac`` / ``OP_compressed_frac``: holds away from the
+  signal's extremes, so a saturated OP does not count) draws a warning but is not
+  bridged: a held PV reads like a valve that does not move, but bridging it turns a
+  stick followed by a slip into a ramp (``experiments/compression.py``: on the labelled
+  real windows bridging each tag removed the false alarms and a third of the
+  detections).
 - Quantisation is detected from the gaps between the distinct values (all integer
   multiples of one quantum ``q``); ``range/q`` is the number of quantisation steps the
   signal spans. A fine grid (CSV values printed to a few decimals) is reported but not
@@ -82,6 +88,9 @@ import numpy as np
 from ..errors import InputError
 from ..recording import Recording
 from ..validation import jsonable
+
+#: share of held steps above which a signal (or the record) is taken as compressed
+HOLD_WARN = 0.1
 
 _INTERP = re.compile(r"interpolated (\d+) missing values")
 
@@ -333,6 +342,13 @@ def _compression(sig: dict[str, np.ndarray], f: _Findings, motion_q: dict[str, b
                    compression_factor=(1.0 / (1.0 - comp)) if comp < 1 else math.inf,
                    compression_signals="+".join(use), compression_ambiguous=ambiguous,
                    compressed=(not ambiguous) and comp > warn_frac)
+    for s in cont:
+        own = own_holds(sig[s])
+        f.flags[f"{s}_compressed_frac"] = own
+        if own > warn_frac and not comp > warn_frac:
+            f.warnings.append(f"historian compression of {s} alone: unchanged in "
+                              f"{_pct(own)} of steps while the other signal moves (a held "
+                              f"PV reads like a valve that does not move)")
     what = " and ".join(use)
     detail = f"held {_pct(held)}" + (f", linear {_pct(lin)}" if lin >= 0.005 else "")
     if ambiguous:
@@ -446,7 +462,7 @@ def screen(
     dead_abs: float = 1e-30,
     const_rtol: float = 1e-9,
     max_stuck_frac: float = 0.95,
-    warn_compression_frac: float = 0.1,
+    warn_compression_frac: float = HOLD_WARN,
     max_compression_frac: float = 0.9,
     linear_rtol: float = 1e-6,
     warn_quant_steps: float = 100.0,
@@ -539,15 +555,24 @@ def screen(
                          warnings=f.warnings, name=name)
 
 
-def release_holds(rec: Recording, max_gap: int | None = None) -> tuple[Recording, int]:
-    """Historian holds treated as missing: samples where PV and OP are both exactly
-    unchanged are replaced by straight lines between the measured samples around
-    them — only where the gap is at most ``max_gap`` samples (default: 2 % of the
-    record, at least 3); longer holds are kept (the data do not support a guess).
+def release_holds(rec: Recording, max_gap: int | None = None, *,
+                  joint: bool = True,
+                  signals: tuple[str, ...] = ("PV", "OP")) -> tuple[Recording, int]:
+    """Historian holds treated as missing: held samples are replaced by a straight line
+    between the measured samples around them — only where the gap is at most
+    ``max_gap`` samples (default: 2 % of the record, at least 3); longer holds are kept
+    (the data do not support a guess).
 
-    During a valve's stick phase OP keeps moving, so a stick is never a PV-and-OP hold.
+    ``joint=True`` (what :func:`prepare` does): a held sample is one where PV and OP are
+    both exactly unchanged, and every recorded signal is bridged there. During a
+    valve's stick phase OP keeps moving, so a stick is never a PV-and-OP hold.
+    ``joint=False``: each of ``signals`` is bridged over its own holds, as if each tag
+    had been compressed on its own. For box-car (exception) compression this is not the
+    better reconstruction: the held value is within the dead band of the truth, the line
+    is not, and a stick followed by a slip becomes a ramp
+    (``experiments/compression.py`` measures both).
 
-    Returns the new recording and the number of samples filled.
+    Returns the new recording and the number of samples in which any signal was filled.
 
     Examples
     --------
@@ -556,14 +581,45 @@ def release_holds(rec: Recording, max_gap: int | None = None) -> tuple[Recording
     >>> rec, k = release_holds(Recording.from_arrays(t, pv, pv))
     >>> k, float(rec.PV[1])
     (99, 0.5)
+    >>> release_holds(Recording.from_arrays(t, pv, t))[1]
+    0
+    >>> rec, k = release_holds(Recording.from_arrays(t, pv, t), joint=False)
+    >>> k, float(rec.PV[1]), float(rec.OP[1])
+    (99, 0.5, 1.0)
     """
     import dataclasses
 
-    pv, op = np.asarray(rec.PV, float), np.asarray(rec.OP, float)
-    n = pv.size
-    held = np.zeros(n, bool)
-    held[1:] = (np.diff(pv) == 0) & (np.diff(op) == 0)
+    n = len(rec)
     limit = max(3, int(0.02 * n)) if max_gap is None else int(max_gap)
+    k = np.arange(n)
+    fills: dict[str, np.ndarray] = {}
+    if joint:
+        held = np.zeros(n, bool)
+        held[1:] = ((np.diff(np.asarray(rec.PV, float)) == 0)
+                    & (np.diff(np.asarray(rec.OP, float)) == 0))
+        fill = _short_runs(held, limit)
+        fills = {s: fill for s in ("PV", "OP", "SP", "MV") if getattr(rec, s) is not None}
+    else:
+        for s in signals:
+            x = getattr(rec, s, None)
+            if x is not None:
+                held = np.zeros(n, bool)
+                held[1:] = np.diff(np.asarray(x, float)) == 0
+                fills[s] = _short_runs(held, limit)
+    fills = {s: f for s, f in fills.items() if f.any()}
+    if not fills:
+        return rec, 0
+    changes = {s: np.interp(k, k[~f], np.asarray(getattr(rec, s), float)[~f])
+               for s, f in fills.items()}
+    filled = int(np.logical_or.reduce(list(fills.values())).sum())
+    meta = {**rec.meta, "holds_released": filled}
+    return dataclasses.replace(rec, meta=meta, **changes), filled
+
+
+def _short_runs(held: np.ndarray, limit: int) -> np.ndarray:
+    """The ``held`` samples in runs of at most ``limit`` that end at a measured sample
+    (a line needs a point to go to)."""
+    n = held.size
     fill = np.zeros(n, bool)
     i = 1
     while i < n:
@@ -573,29 +629,35 @@ def release_holds(rec: Recording, max_gap: int | None = None) -> tuple[Recording
         j = i
         while j < n and held[j]:
             j += 1
-        if j < n and j - i <= limit:  # a measured sample after the gap to draw the line to
+        if j < n and j - i <= limit:
             fill[i:j] = True
         i = j
-    if not fill.any():
-        return rec, 0
-    keep = ~fill
-    k = np.arange(n)
+    return fill
 
-    def line(x: np.ndarray | None) -> np.ndarray | None:
-        if x is None:
-            return None
-        return np.interp(k, k[keep], np.asarray(x, float)[keep])
 
-    meta = {**rec.meta, "holds_released": int(fill.sum())}
-    new = dataclasses.replace(rec, PV=line(pv), OP=line(op), SP=line(rec.SP),
-                              MV=line(rec.MV), meta=meta)
-    return new, int(fill.sum())
+def own_holds(x: np.ndarray, rtol: float = 0.005) -> float:
+    """Share of steps in which ``x`` is exactly unchanged away from its observed minimum
+    and maximum (within ``rtol`` of its range): a signal pinned at a limit (a saturated
+    OP) holds for a physical reason, not because a historian compressed it.
+
+    Examples
+    --------
+    >>> own_holds(np.array([0.0, 0, 1, 1, 2, 3, 3, 3]))
+    0.142857...
+    """
+    x = np.asarray(x, float)
+    if x.size < 2:
+        return 0.0
+    lo, hi = float(np.min(x)), float(np.max(x))
+    tol = rtol * (hi - lo)
+    inside = (x[1:] > lo + tol) & (x[1:] < hi - tol)
+    return float(np.mean((np.diff(x) == 0) & inside))
 
 
 def prepare(rec: Recording) -> tuple[Recording, QualityReport, int]:
     """Screen a recording and, when it is compressed, treat its held samples as missing
-    (:func:`release_holds`); returns the recording to analyse, the screen of the
-    original and the number of samples filled."""
+    (:func:`release_holds`, PV-and-OP holds); returns the recording to analyse, the
+    screen of the original and the number of samples filled."""
     q = screen(rec)
     if q.usable and q.flags.get("compressed"):
         out, k = release_holds(rec)
