@@ -9,8 +9,8 @@ never written) in which exactly one physical effect is hidden:
     quasi-static equivalents), dead band from the play operator, white measurement noise,
     a stationary random-walk-through-lag load.
 ``sim_he``
-    :mod:`stictionbench.sim` with He et al.'s (2007) two-layer stiction model and
-    Choudhury's two-parameter model with ``J = 0`` for the dead band; PI every 0.5 s;
+    :mod:`stictionbench.sim` with He et al.'s (2007) two-layer stiction model, and the
+    same model with ``J = 0`` (``fs = fd``) for the dead band; PI every 0.5 s;
     white noise; the recorded PV and OP quantised by a historian (resolution half the
     noise standard deviation, 0.05 % of OP).
 ``lsim_choudhury``
@@ -135,7 +135,11 @@ def _sim_overrides(c: Case, controller_s: float | None = None) -> list[str]:
         if c.family == "sim_physical":
             ov.update({"valve": "deadband", "valve.deadband": tr["deadband"]})
         else:
-            ov.update({"valve": "choudhury", "valve.S": tr["deadband"], "valve.J": 0.0})
+            # He's model with J = 0 (fs = fd): a dead band under any input. Choudhury's
+            # model with J = 0 is one only for a smooth input: under a noisy OP a reversal
+            # arms the full band S in both directions, and a return the original way
+            # slips with a jump (tests/test_valves.py), so it is not a dead band here
+            ov.update({"valve": "he", "valve.S": tr["deadband"], "valve.J": 0.0})
     elif c.cls == "sensor_lag":
         ov["sensor.time_constant"] = tr["time_constant"]
     elif c.cls == "dead_time":

@@ -146,3 +146,20 @@ def test_backlash_is_pure_deadband():
     assert np.max(np.abs(op - mv)) == pytest.approx(1.5, abs=1e-9)
     np.testing.assert_allclose(respond(ChoudhuryValve(S=3.0, J=0.0), op)[500:], mv[500:],
                                atol=0.2)
+
+
+def test_choudhury_j0_is_a_dead_band_only_for_a_smooth_input():
+    """Under a noisy OP, Choudhury's model with J = 0 arms the full band S at every
+    reversal in both directions, so it slips with jumps and lags OP by more than S/2;
+    He's model with J = 0 and the play operator stay a dead band (why the concealed
+    benchmark's dead band is He's model with J = 0, not Choudhury's)."""
+    rng = np.random.default_rng(0)
+    t = np.arange(4000) * 0.5
+    op = 50 + 5 * np.sin(2 * np.pi * t / 300) + 0.1 * rng.standard_normal(t.size)
+    for valve in (HeValve(S=3.0, J=0.0), BacklashValve(deadband=3.0)):
+        mv = respond(valve, op, h=0.5)
+        assert np.max(np.abs(np.diff(mv))) < 1.0
+        assert np.max(np.abs(op - mv)) == pytest.approx(1.5, abs=1e-9)
+    mv = respond(ChoudhuryValve(S=3.0, J=0.0), op, h=0.5)
+    assert np.sum(np.abs(np.diff(mv)) > 1.0) >= 5
+    assert np.max(np.abs(op - mv)) > 3.0

@@ -198,7 +198,12 @@ class ChoudhuryValve(Valve):
     """Choudhury et al. (2005) two-parameter data-driven stiction model.
 
     ``S`` = deadband + stickband and ``J`` = slip jump, both in % of span.
-    J = 0 is pure deadband; J < S undershoot; J = S no offset; J > S overshoot.
+    J < S undershoot; J = S no offset; J > S overshoot. J = 0 is a pure dead band only
+    for a smooth input: the model sticks at every reversal with the full band ``S``
+    armed in *both* directions (``|op − op_stick| > S``), so under a noisy OP a brief
+    reversal followed by motion the original way slips with a jump of up to ``S`` and
+    the valve lags OP by up to ``1.5 S`` (``tests/test_valves.py``). For a dead band
+    under noise use :class:`BacklashValve` or :class:`HeValve` with ``J = 0``.
     """
 
     S: float = 5.0
