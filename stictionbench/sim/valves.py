@@ -240,7 +240,9 @@ class BacklashValve(Valve):
     """Backlash / deadband (play) of total width ``deadband`` % : the stem follows OP
     only after the input has crossed the play; ``MV = OP ∓ deadband/2`` while moving.
 
-    This is the two-parameter model with J = 0 ("pure deadband").
+    It is what the two-parameter models with J = 0 mean by a "pure deadband" (He's and
+    Kano's are this under any input; Choudhury's only under a smooth one: see
+    :class:`ChoudhuryValve`).
     """
 
     deadband: float = 2.0
