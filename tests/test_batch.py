@@ -1,16 +1,14 @@
-"""Batch verdicts: the rule on simulated loops, group scoring, LOGO, the CLI, real data."""
+"""Batch verdicts: the rule on simulated loops, the CLI, real data."""
 
 from __future__ import annotations
 
 import json
 
-import pandas as pd
 import pytest
 
 import stictionbench as sb
 from stictionbench.cli import main
 from stictionbench.io import write_recording
-from stictionbench.realdata.scoring import balanced_accuracy, group_verdicts, logo
 from stictionbench.realdata.verdict import StictionRule, assess
 
 COMMON = dict(duration=3000.0, sample_time=1.0, sensor="noisy", setpoint="constant",
@@ -46,26 +44,6 @@ def test_cycle_opening_is_set_by_the_controller(period):
     expected = math.degrees(math.atan(period / (2 * math.pi * 10.0))) + 360.0 / period
     assert e["op_pv_phase_deg"] == pytest.approx(expected, abs=4.0)
     assert e["verdict"] == "stiction"
-
-
-def test_group_scoring_and_logo():
-    def e(name, group, label, ar):
-        return {"name": name, "group": group, "label": label, "verdict": None,
-                "ellipse_axis_ratio": ar, "ellipse_residual": 0.1}
-
-    entries = [e("a1", "A", "stiction", 0.8), e("a2", "A", "stiction", 0.1),
-               e("a3", "A", "stiction", 0.7), e("b1", "B", "no_stiction", 0.05),
-               e("c1", "C", "disturbance", 0.1), e("d1", "D", "stiction", 0.6)]
-    gv = group_verdicts(entries, StictionRule())
-    assert list(gv["verdict"]) == ["stiction", "no_stiction", "no_stiction", "stiction"]
-    assert list(gv["label"]) == ["stiction", "no_stiction", "no_stiction", "stiction"]
-    ba, conf = balanced_accuracy(gv)
-    assert ba == 1.0 and conf.loc["stiction", "stiction"] == 2
-    ba_logo, rows = logo(entries, StictionRule())
-    assert len(rows) == 4 and 0.0 <= ba_logo <= 1.0
-    # a window-level majority never lets one bad window flip a loop
-    entries[0]["ellipse_axis_ratio"] = 0.05
-    assert group_verdicts(entries, StictionRule())["verdict"][0] == "no_stiction"  # 1 of 3
 
 
 def test_batch_cli(loops, tmp_path, capsys):
@@ -104,16 +82,18 @@ def test_batch_cli(loops, tmp_path, capsys):
 
 
 def test_isdb_balanced_accuracy(data_dir):
+    """The first-release ellipse rule (``ellipse_v1`` of the comparison, in-sample: its
+    thresholds were chosen on these loops) scored by loop with the comparison's own
+    loop aggregation."""
+    from stictionbench.realdata.compare import balanced_accuracy, loop_verdicts
     from stictionbench.realdata.datasets import load_csv_dir
 
     recs, _ = load_csv_dir(data_dir / "isdb", warn=False)
-    entries = []
+    windows = []
     for name, rec in recs.items():
-        e = assess(rec, name, run_diagnosis=False)
-        e.update(group=rec.meta["group"], label=rec.meta["label"])
-        entries.append(e)
-    ba, _ = balanced_accuracy(group_verdicts(entries, StictionRule()))
-    assert ba >= 0.9
-    ba_logo, _ = logo(entries, StictionRule())
-    assert ba_logo >= 0.85
-    assert pd.notna(ba)
+        e = assess(rec, name, StictionRule(), run_diagnosis=False)
+        windows.append({"group": rec.meta["group"], "label": rec.meta["label"],
+                        "loop_type": "", "ellipse": {"verdict": e["verdict"]}})
+    loops = loop_verdicts(windows, ["ellipse"])
+    ba = balanced_accuracy(loops["label"], loops["ellipse"])
+    assert len(loops) == 14 and ba >= 0.9

@@ -198,12 +198,12 @@ def paper_method_lines(entries) -> list[str]:
     """How the seed paper's CO→MV delay rule fares when MV is estimated from the fitted
     stiction model (plants do not record MV): share of windows with delay > 0.5 samples,
     by label."""
-    from .scoring import binary_label
+    from .compare import binary
 
     df = pd.DataFrame(entries)
     if "xcum_delay_est_mv" not in df.columns:
         return []
-    df["lab"] = [binary_label(x) for x in df.get("label", [None] * len(df))]
+    df["lab"] = [binary(x) for x in df.get("label", [None] * len(df))]
     out = ["## The paper's method with an estimated MV", "",
            "MV is not recorded; it is estimated with the stiction model fitted by the "
            "model-free diagnosis, then `xcorr`/`xcum` (max_delay 30) estimate the CO→MV "

@@ -255,7 +255,7 @@ def binary(label: Any) -> str | None:
     and tuning labels are non-stiction); None when unlabelled."""
     if label is None or (isinstance(label, float) and math.isnan(label)):
         return None
-    return "stiction" if str(label) == "stiction" else "no_stiction"
+    return "stiction" if str(label).strip().lower() == "stiction" else "no_stiction"
 
 
 def loop_verdicts(windows: list[dict[str, Any]], methods: Iterable[str]) -> pd.DataFrame:
