@@ -55,7 +55,7 @@ from stictionbench.realdata.datasets import load_csv_dir  # noqa: E402
 from stictionbench.realdata.quality import held_fraction, release_holds  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
-from stictionbench.sim.measurement import held_share, historian_compression  # noqa: E402
+from stictionbench.sim.measurement import historian_compression  # noqa: E402
 
 SHARES = (0.0, 0.3, 0.5, 0.7, 0.85)
 #: windows whose own PV-and-OP hold share is above this are left out (already compressed)
@@ -105,7 +105,7 @@ def one(source: str, name: str, rec: Recording, share: float, treatment: str,
     calls = window_calls(given, name, methods=PUBLISHED)
     row = {"source": source, "window": name, "group": calls["group"],
            "label": binary(rec.meta.get("label")), "share": share, "treatment": treatment,
-           "pv_held": held_share(comp.PV), "op_held": held_share(comp.OP),
+           "pv_held": held_fraction(comp.PV), "op_held": held_fraction(comp.OP),
            "joint_held": held_fraction(comp.PV, comp.OP),
            "holds_released": calls["holds_released"]}
     verdicts = {m: calls[m].verdict for m in PUBLISHED}

@@ -34,7 +34,6 @@ from stictionbench.realdata.quality import (
 from stictionbench.sim.measurement import (
     boxcar_compress,
     compress_to_share,
-    held_share,
     historian_compression,
 )
 
@@ -278,13 +277,13 @@ def test_historian_boxcar_model(clean):
     pv, op = clean
     for share in (0.3, 0.7):
         c = compress_to_share(pv, share)
-        assert held_share(c) == pytest.approx(share, abs=0.01)
+        assert held_fraction(c) == pytest.approx(share, abs=0.01)
         band = np.min(np.abs(np.diff(c)[np.diff(c) != 0]))  # every stored jump exceeds it
         assert np.max(np.abs(c - pv)) <= band
     assert np.max(np.abs(boxcar_compress(pv, 0.5) - pv)) <= 0.5
     out = historian_compression(_rec(pv, op), 0.6)
-    assert held_share(out.PV) == pytest.approx(0.6, abs=0.01)
-    assert held_share(out.OP) == pytest.approx(0.6, abs=0.01)
+    assert held_fraction(out.PV) == pytest.approx(0.6, abs=0.01)
+    assert held_fraction(out.OP) == pytest.approx(0.6, abs=0.01)
     assert held_fraction(out.PV, out.OP) < 0.6  # independent tags: fewer joint holds
     with pytest.raises(InputError, match="below 1"):
         compress_to_share(pv, 1.0)
@@ -301,7 +300,7 @@ def test_one_tag_compressed(clean):
     assert any("historian compression of PV alone" in w for w in rep.warnings)
     assert release_holds(rec)[1] == 0
     bridged, k = release_holds(rec, joint=False)
-    assert k > 0.3 * pv.size and held_share(bridged.PV) < 0.05
+    assert k > 0.3 * pv.size and held_fraction(bridged.PV) < 0.05
     assert np.array_equal(bridged.OP, op)
     # a saturated OP holds at its limit: not counted as compression
     assert screen(_rec(pv, np.minimum(op, 52.0))).flags["OP_compressed_frac"] < 0.01

@@ -87,6 +87,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..recording import Recording
+from ..sim.measurement import held_fraction
 from ..validation import jsonable
 
 #: share of held steps above which a signal (or the record) is taken as compressed
@@ -136,23 +137,6 @@ class QualityReport:
 
 
 # --------------------------------------------------------------------------- measures
-def held_fraction(*signals: np.ndarray) -> float:
-    """Share of sample-to-sample steps in which every signal is exactly unchanged.
-
-    With PV and OP this is ``held_frac`` of ``plant/labels.csv``: the historian's
-    hold-last-value (box-car) fill.
-
-    Examples
-    --------
-    >>> held_fraction(np.array([1., 1, 2, 2, 3]), np.array([5., 5, 6, 7, 8]))
-    0.25
-    """
-    same = np.ones(signals[0].size - 1, dtype=bool)
-    for x in signals:
-        same &= np.diff(x) == 0
-    return float(same.mean()) if same.size else 0.0
-
-
 def linear_fraction(*signals: np.ndarray, rtol: float = 1e-6) -> float:
     """Share of steps in which every signal moves and lies on a straight line.
 
@@ -275,7 +259,7 @@ def _liveness(sig: dict[str, np.ndarray], f: _Findings, dead_abs: float,
     for s, x in sig.items():
         amax = float(np.max(np.abs(x)))
         ptp = float(np.ptp(x))
-        stuck = float(np.mean(np.diff(x) == 0))
+        stuck = held_fraction(x)
         f.flags.update({f"{s}_ptp": ptp, f"{s}_held_frac": stuck,
                         f"{s}_dead": amax < dead_abs,
                         f"{s}_constant": ptp <= const_rtol * max(1.0, amax),

@@ -95,9 +95,21 @@ def boxcar_compress(x: np.ndarray, deadband: float) -> np.ndarray:
     return _boxcar(x, float(number("deadband", deadband, low=0.0)))
 
 
-def held_share(x: np.ndarray) -> float:
-    """Share of sample-to-sample steps in which ``x`` is exactly unchanged."""
-    return float(np.mean(np.diff(x) == 0)) if x.size > 1 else 0.0
+def held_fraction(*signals: np.ndarray) -> float:
+    """Share of sample-to-sample steps in which every signal is exactly unchanged.
+
+    With PV and OP this is ``held_frac`` of ``plant/labels.csv``: the historian's
+    hold-last-value (box-car) fill.
+
+    Examples
+    --------
+    >>> held_fraction(np.array([1., 1, 2, 2, 3]), np.array([5., 5, 6, 7, 8]))
+    0.25
+    """
+    same = np.ones(max(signals[0].size - 1, 0), dtype=bool)
+    for x in signals:
+        same &= np.diff(x) == 0
+    return float(same.mean()) if same.size else 0.0
 
 
 def compress_to_share(x: np.ndarray, share: float, *, iterations: int = 40) -> np.ndarray:
@@ -107,19 +119,19 @@ def compress_to_share(x: np.ndarray, share: float, *, iterations: int = 40) -> n
     Examples
     --------
     >>> x = np.cumsum(np.random.default_rng(0).standard_normal(2000))
-    >>> round(held_share(compress_to_share(x, 0.5)), 2)
+    >>> round(held_fraction(compress_to_share(x, 0.5)), 2)
     0.5
     """
     share = number("hold share", share, low=0.0)
     if share >= 1.0:
         raise InputError(f"hold share {share} must be below 1")
     x = np.asarray(x, dtype=float)
-    if share == 0.0 or held_share(x) >= share:
+    if share == 0.0 or held_fraction(x) >= share:
         return x.copy()
     lo, hi = 0.0, float(np.ptp(x))
     for _ in range(iterations):
         mid = 0.5 * (lo + hi)
-        if held_share(boxcar_compress(x, mid)) >= share:
+        if held_fraction(boxcar_compress(x, mid)) >= share:
             hi = mid
         else:
             lo = mid
@@ -160,10 +172,12 @@ def historian_compression(rec: Recording, share: float,
     >>> rec = Recording.from_arrays(t, np.cumsum(rng.standard_normal(1000)),
     ...                             np.cumsum(rng.standard_normal(1000)))
     >>> out = historian_compression(rec, 0.6)
-    >>> round(held_share(out.PV), 1), round(held_share(out.OP), 1), out.meta["historian_hold_share"]
-    (0.6, 0.6, 0.6)
+    >>> round(held_fraction(out.PV), 1), round(held_fraction(out.OP), 1)
+    (0.6, 0.6)
+    >>> out.meta["historian_hold_share"]
+    0.6
     >>> out = historian_compression(rec, 0.6, joint=True)
-    >>> round(held_share(out.PV), 2), round(held_share(out.OP), 2)
+    >>> round(held_fraction(out.PV), 2), round(held_fraction(out.OP), 2)
     (0.6, 0.6)
     """
     share = number("hold share", share, low=0.0)
@@ -186,7 +200,7 @@ def historian_compression(rec: Recording, share: float,
             lo, hi = 0.0, float(np.max(np.ptp(x, axis=0) / scale)) + 1.0
             for _ in range(iterations):
                 mid = 0.5 * (lo + hi)
-                if held_share(_row_boxcar(x, mid * scale)[:, 0]) >= share:
+                if held_fraction(_row_boxcar(x, mid * scale)[:, 0]) >= share:
                     hi = mid
                 else:
                     lo = mid
