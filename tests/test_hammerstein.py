@@ -52,6 +52,18 @@ def test_valve_with_a_contradicting_process_is_not_a_valve(kano_fit):
     assert bad.to_dict()["process_consistent"] is False
 
 
+def test_stick_band_that_inflates_the_linear_tau_is_still_found():
+    # a stick band of a quarter of the OP span: the linear loop fitted through the valve
+    # reads its ramps as a process 15x slower than the true τ = 10 s, beyond the old
+    # process grid (down to 0.08 τ_lin), which ended on J = 0 here (a dead band)
+    rec = _rec("kano", seed=2, duration=1500.0, valve__S=25.0, valve__J=5.0)
+    r = fit_hammerstein(rec)
+    assert r.linear_process["time_constant"] > 10 * 10.0
+    assert r.stiction and r.J_interval[0] > 0.0
+    assert r.S == pytest.approx(25.0, rel=0.1)
+    assert r.process["time_constant"] == pytest.approx(10.0, rel=0.3)
+
+
 def test_linear_loop_not_called_stiction():
     r = fit_hammerstein(_rec("linear", seed=5))
     assert not r.stiction

@@ -230,6 +230,11 @@ def _valve_grid(crit: _Criterion, tau0: float, theta0: float) -> list[tuple[floa
         shifts = (0.0, -crit.Ts, crit.Ts)
         return _batch(crit, valves, [(tau0, theta0 + d) for d in shifts if theta0 + d >= 0])
     taus = sorted({max(tau0 * f, 0.5 * crit.Ts) for f in (1.0, 0.3, 0.08)})
+    # a limit cycle read through a linear model can inflate τ by orders of magnitude (an
+    # integrator-like fit of the valve's ramps): the grid continues down to the sample
+    # time in factors of 4
+    while taus[0] > 2.0 * crit.Ts:
+        taus.insert(0, max(taus[0] / 4.0, 0.5 * crit.Ts))
     thetas = sorted({theta0, 0.5 * theta0, 0.0})
     return _batch(crit, valves, [(a, b) for a in taus for b in thetas])
 
