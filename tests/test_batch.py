@@ -74,6 +74,10 @@ def test_batch_cli(loops, tmp_path, capsys):
     assert names["tight"]["verdict"] == "no_stiction"
     assert {s["file"] for s in res["skipped"]} == {"notes.csv", "labels.csv"}
     assert res["scores"]["balanced_accuracy_by_group"] == 1.0
+    # each loop says how close its majority is
+    groups = {g["group"]: g for g in res["scores"]["groups"]}
+    assert (groups["sticky"]["stiction_windows"], groups["sticky"]["decided_windows"]) == (1, 1)
+    assert (groups["tight"]["stiction_windows"], groups["tight"]["decided_windows"]) == (0, 1)
     for f in ("entries.md", "methods.md", "groups.csv", "logo.csv", "confusion.md", "summary.md",
               "timeseries.png", "phase.png"):
         assert (rep / f).is_file()

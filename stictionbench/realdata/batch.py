@@ -62,6 +62,16 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
         loops = loop_verdicts(windows, [*ran, "verdict"])
         usable = loops[loops["verdict"] != "unusable"]
         gv = loops.rename(columns={"loop": "group"})[["group", "windows", "label", "verdict"]]
+        # how close each loop's majority is: windows called stiction among those decided
+        # (a loop of 23 windows decided by 12 against 11 is a knife edge, not a finding)
+        calls = pd.DataFrame({"group": [e["group"] for e in entries],
+                              "verdict": [e["verdict"] for e in entries]})
+        decided = calls[calls["verdict"].isin(["stiction", "no_stiction"])]
+        gv["stiction_windows"] = gv["group"].map(
+            decided.groupby("group")["verdict"].apply(lambda v: int((v == "stiction").sum()))
+        ).fillna(0).astype(int)
+        gv["decided_windows"] = gv["group"].map(decided.groupby("group").size()).fillna(
+            0).astype(int)
         candidates = tuple(m for m in PUBLISHED if m in ran)
         left_out = lolo(usable, candidates)
         tuned = fit(usable, candidates)
