@@ -230,13 +230,17 @@ def _valve_grid(crit: _Criterion, tau0: float, theta0: float) -> list[tuple[floa
         shifts = (0.0, -crit.Ts, crit.Ts)
         return _batch(crit, valves, [(tau0, theta0 + d) for d in shifts if theta0 + d >= 0])
     taus = sorted({max(tau0 * f, 0.5 * crit.Ts) for f in (1.0, 0.3, 0.08)})
+    thetas = sorted({theta0, 0.5 * theta0, 0.0})
+    processes = [(a, b) for a in taus for b in thetas]
     # a limit cycle read through a linear model can inflate τ by orders of magnitude (an
     # integrator-like fit of the valve's ramps): the grid continues down to the sample
-    # time in factors of 4
-    while taus[0] > 2.0 * crit.Ts:
-        taus.insert(0, max(taus[0] / 4.0, 0.5 * crit.Ts))
-    thetas = sorted({theta0, 0.5 * theta0, 0.0})
-    return _batch(crit, valves, [(a, b) for a in taus for b in thetas])
+    # time in factors of 4, at the linear loop's θ and half of it (refined jointly
+    # afterwards)
+    tau = taus[0]
+    while tau > 2.0 * crit.Ts:
+        tau = max(tau / 4.0, 0.5 * crit.Ts)
+        processes += [(tau, theta0), (tau, 0.5 * theta0)]
+    return _batch(crit, valves, processes)
 
 
 def _scan(crit: _Criterion, p: tuple) -> tuple[float, tuple]:
