@@ -219,7 +219,8 @@ def _batch(crit: _Criterion, valves: list[tuple[float, float, int]],
 def _valve_grid(crit: _Criterion, tau0: float, theta0: float) -> list[tuple[float, tuple]]:
     """Global search: every ``(S, J/S, stop rule)`` of a grid against nine process
     candidates (the linear loop's ``τ`` and ``θ`` shrunk, since through a sticky valve
-    the linear fit absorbs the valve's lag)."""
+    the linear fit absorbs the valve's lag), and two more for every factor of 4 that
+    ``0.08 τ`` lies above twice the sample time."""
     Ss = np.geomspace(0.01 * crit.span, 0.8 * crit.span, 24)
     js = (0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 0.9, 1.1, 1.3)
     valves = [(float(S), float(j * S), rule) for rule in range(len(STOP_RULES))
@@ -237,7 +238,9 @@ def _valve_grid(crit: _Criterion, tau0: float, theta0: float) -> list[tuple[floa
     # time in factors of 4, at the linear loop's θ and half of it (refined jointly
     # afterwards)
     tau = taus[0]
-    while tau > 2.0 * crit.Ts:
+    for _ in range(12):  # 4¹² ≈ 1.7e7: bounded even for a degenerate τ
+        if not tau > 2.0 * crit.Ts:
+            break
         tau = max(tau / 4.0, 0.5 * crit.Ts)
         processes += [(tau, theta0), (tau, 0.5 * theta0)]
     return _batch(crit, valves, processes)
