@@ -32,6 +32,11 @@ def test_loop_majority_and_ties():
     lv = loop_verdicts(w, ["m"]).set_index("loop")
     assert lv.loc["A", "m"] == "stiction" and lv.loc["A", "windows"] == 3
     assert lv.loc["B", "m"] == "inconclusive"  # one window each way
+    # the votes behind each majority, only where asked for
+    assert "m_stiction_windows" not in lv.columns
+    lc = loop_verdicts(w, ["m"], counts=["m"]).set_index("loop")
+    assert (lc.loc["A", "m_stiction_windows"], lc.loc["A", "m_decided_windows"]) == (2, 3)
+    assert (lc.loc["B", "m_stiction_windows"], lc.loc["B", "m_decided_windows"]) == (1, 2)
 
 
 def test_consensus_fit_prefers_the_informative_method():

@@ -59,19 +59,14 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
                    for e in entries]
         # batch runs the consensus methods and the fast ones (compare runs them all)
         ran = [m for m in METHODS if all(m in w for w in windows)]
-        loops = loop_verdicts(windows, [*ran, "verdict"])
+        # the consensus's votes per loop say how close its majority is (a loop of 23
+        # windows decided by 12 against 11 is a knife edge, not a finding)
+        loops = loop_verdicts(windows, [*ran, "verdict"], counts=["verdict"])
         usable = loops[loops["verdict"] != "unusable"]
-        gv = loops.rename(columns={"loop": "group"})[["group", "windows", "label", "verdict"]]
-        # how close each loop's majority is: windows called stiction among those decided
-        # (a loop of 23 windows decided by 12 against 11 is a knife edge, not a finding)
-        calls = pd.DataFrame({"group": [e["group"] for e in entries],
-                              "verdict": [e["verdict"] for e in entries]})
-        decided = calls[calls["verdict"].isin(["stiction", "no_stiction"])]
-        gv["stiction_windows"] = gv["group"].map(
-            decided.groupby("group")["verdict"].apply(lambda v: int((v == "stiction").sum()))
-        ).fillna(0).astype(int)
-        gv["decided_windows"] = gv["group"].map(decided.groupby("group").size()).fillna(
-            0).astype(int)
+        gv = loops.rename(columns={"loop": "group", "verdict_stiction_windows":
+                                   "stiction_windows", "verdict_decided_windows":
+                                   "decided_windows"})[
+            ["group", "windows", "label", "verdict", "stiction_windows", "decided_windows"]]
         candidates = tuple(m for m in PUBLISHED if m in ran)
         left_out = lolo(usable, candidates)
         tuned = fit(usable, candidates)
@@ -89,7 +84,8 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
             tuned_rule=tuned.to_dict(),
             balanced_accuracy_tuned_in_sample=balanced_accuracy(usable["label"],
                                                                 tuned.apply(usable)),
-            methods=loops.drop(columns=["verdict"]).to_dict(orient="records"),
+            methods=loops.drop(columns=["verdict", "verdict_stiction_windows",
+                                          "verdict_decided_windows"]).to_dict(orient="records"),
             unusable_groups=list(loops["loop"][loops["verdict"] == "unusable"]))
     return entries, skipped, scores
 

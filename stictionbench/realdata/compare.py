@@ -258,10 +258,14 @@ def binary(label: Any) -> str | None:
     return "stiction" if str(label).strip().lower() == "stiction" else "no_stiction"
 
 
-def loop_verdicts(windows: list[dict[str, Any]], methods: Iterable[str]) -> pd.DataFrame:
+def loop_verdicts(windows: list[dict[str, Any]], methods: Iterable[str],
+                  counts: Iterable[str] = ()) -> pd.DataFrame:
     """One row per physical loop (windows hold a :class:`Call` or a ``{"verdict",
     "reason"}`` dict per method): each method's majority over its decided windows
-    (a tie, or no decided window, is inconclusive — with the commonest reason)."""
+    (a tie, or no decided window, is inconclusive — with the commonest reason). For the
+    methods in ``counts`` the row also gives the votes behind the majority:
+    ``{m}_stiction_windows`` of ``{m}_decided_windows``."""
+    counts = set(counts)
     rows = []
     by: dict[str, list[dict[str, Any]]] = {}
     for w in windows:
@@ -272,6 +276,9 @@ def loop_verdicts(windows: list[dict[str, Any]], methods: Iterable[str]) -> pd.D
         for m in methods:
             calls = [_as_call(w[m]) for w in ws]
             votes = Counter(c.verdict for c in calls if c.verdict in VERDICTS[:2])
+            if m in counts:
+                row[f"{m}_stiction_windows"] = votes["stiction"]
+                row[f"{m}_decided_windows"] = votes["stiction"] + votes["no_stiction"]
             if votes["stiction"] > votes["no_stiction"]:
                 row[m] = "stiction"
             elif votes["no_stiction"] > votes["stiction"]:
