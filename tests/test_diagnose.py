@@ -401,3 +401,27 @@ def test_setpoint_steps_remove_the_regulatory_bias_of_the_identified_process():
     assert abs(math.log(m_moved.time_constant / 16.0)) < 0.3
     assert m_moved.gain == pytest.approx(1.0, rel=0.25)
     assert m_still.time_constant > 3 * 16.0
+
+
+@pytest.mark.parametrize(("tau", "theta"), [(7.3, 4.6), (0.4, 0.0), (120.0, 31.5)])
+def test_fopdt_biquad_is_the_two_filters_it_fuses(tau, theta):
+    # the valve grid's kernel: FOPDT from rest, then a biquad prefilter, column by column
+    # of a batch of candidate valve outputs (one column and many, whole and fractional
+    # dead times)
+    from scipy.signal import butter
+
+    from stictionbench.diagnosis.openloop import fopdt_biquad, fopdt_coefficients
+
+    rng = np.random.default_rng(3)
+    hb, ha = butter(2, 0.02, "highpass")
+    b, a = fopdt_coefficients(1.0, tau, theta)
+    d = b.size - 3
+    for m in (1, 7):
+        u = np.ascontiguousarray(np.cumsum(rng.standard_normal((800, m)), axis=0) + 50.0)
+        ours = fopdt_biquad(u, -a[1], b[d + 1], b[d + 2], d, hb, ha)
+        ref = lfilter(hb, ha, lfilter(b, a, u - u[0], axis=0), axis=0)
+        np.testing.assert_allclose(ours, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+        # a column's result does not depend on its neighbours
+        np.testing.assert_array_equal(
+            fopdt_biquad(np.ascontiguousarray(u[:, -1:]), -a[1], b[d + 1], b[d + 2], d, hb,
+                         ha)[:, 0], ours[:, -1])

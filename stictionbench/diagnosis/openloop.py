@@ -43,24 +43,37 @@ def fopdt_response(u: np.ndarray, Ts: float, tau: float, theta: float) -> np.nda
     return lfilter(b, a, u - u[0], axis=0)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def fopdt_biquad(u, a, w_new, w_old, d, hb, ha):
     """FOPDT (``y[k] = a·y[k−1] + w_new·x[k−1−d] + w_old·x[k−2−d]``, ``x = u − u[0]``)
     followed by the biquad ``hb/ha`` (e.g. a high-pass prefilter), along the first axis
-    of a 2-D array, from rest: the same result as two ``lfilter`` calls, in one pass."""
+    of a 2-D array, from rest: the same result as two ``lfilter`` calls, in one pass.
+
+    Time runs in the outer loop and the columns in the inner one, so a C-ordered matrix
+    of many candidate inputs (:func:`.hammerstein._batch`) is read row by row."""
     n, m = u.shape
     out = np.empty((n, m))
-    for j in range(m):
-        y1 = 0.0
-        z1 = z2 = 0.0
-        o1 = o2 = 0.0
-        for k in range(n):
-            x1 = u[k - 1 - d, j] - u[0, j] if k - 1 - d >= 0 else 0.0
-            x2 = u[k - 2 - d, j] - u[0, j] if k - 2 - d >= 0 else 0.0
-            y = a * y1 + w_new * x1 + w_old * x2
-            o = (hb[0] * y + hb[1] * z1 + hb[2] * z2 - ha[1] * o1 - ha[2] * o2) / ha[0]
-            z2, z1, y1 = z1, y, y
-            o2, o1 = o1, o
+    z1 = np.zeros(m)  # the FOPDT's last output, also the biquad's first delay
+    z2 = np.zeros(m)
+    o1 = np.zeros(m)
+    o2 = np.zeros(m)
+    u0 = u[0].copy()
+    c0, c1, c2 = hb[0] / ha[0], hb[1] / ha[0], hb[2] / ha[0]
+    r1, r2 = ha[1] / ha[0], ha[2] / ha[0]
+    for k in range(n):
+        i1 = k - 1 - d
+        i2 = k - 2 - d
+        for j in range(m):
+            y = a * z1[j]  # from rest: delayed inputs before the record are 0
+            if i1 >= 0:
+                y += w_new * (u[i1, j] - u0[j])
+            if i2 >= 0:
+                y += w_old * (u[i2, j] - u0[j])
+            o = c0 * y + c1 * z1[j] + c2 * z2[j] - r1 * o1[j] - r2 * o2[j]
+            z2[j] = z1[j]
+            z1[j] = y
+            o2[j] = o1[j]
+            o1[j] = o
             out[k, j] = o
     return out
 
@@ -73,7 +86,7 @@ def first_order_lag(y: np.ndarray, Ts: float, tau: float) -> np.ndarray:
     return lfilter([1.0 - a], [1.0, -a], y - y[0]) + y[0]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def stiction_valve(op, S, J, delta=0.0):
     """Kano et al. (2004) two-parameter stiction model on an OP sequence (% of span).
 
@@ -123,7 +136,7 @@ def stiction_valve(op, S, J, delta=0.0):
     return mv
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def play(op, width):
     """Backlash/deadband (play operator) of total ``width`` on an OP sequence."""
     n = op.size
