@@ -15,16 +15,20 @@ from .errors import InputError
 
 EXIT_BAD_INPUT = 2
 
-#: modules that add a sub-command: each has ``add_command(subparsers)`` which adds its
-#: parser and sets ``func`` (one module per line)
-COMMAND_MODULES: tuple[str, ...] = (
-    "stictionbench.paper.command",
-    "stictionbench.sim.command",
-    "stictionbench.estimators.command",
-    "stictionbench.diagnosis.command",
-    "stictionbench.sweep.command",
-    "stictionbench.realdata.command",
-)
+#: modules that add sub-commands, each with the commands it adds: every module has
+#: ``add_command(subparsers)`` which adds their parsers and sets ``func``. A command
+#: line naming one of these commands imports only its module (the others pull in
+#: simulation, Hydra and plotting stacks that take about a second to import);
+#: ``tests/test_cli.py`` checks that each module adds exactly the commands listed here.
+COMMAND_MODULES: dict[str, tuple[str, ...]] = {
+    "stictionbench.paper.command": ("replicate",),
+    "stictionbench.sim.command": ("simulate",),
+    "stictionbench.estimators.command": ("estimate",),
+    "stictionbench.diagnosis.command": ("diagnose",),
+    "stictionbench.sweep.command": ("sweep",),
+    "stictionbench.realdata.command": ("screen", "oscillation-benchmark", "batch",
+                                       "compare"),
+}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -32,18 +36,25 @@ class _Parser(argparse.ArgumentParser):
         raise InputError(message)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The CLI parser with every sub-command, or only ``command``'s when it is one of
+    :data:`COMMAND_MODULES` (the others are then not imported)."""
     p = _Parser(prog="stictionbench", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for name in COMMAND_MODULES:
+    modules = [m for m, names in COMMAND_MODULES.items() if command in names] \
+        or list(COMMAND_MODULES)
+    for name in modules:
         import_module(name).add_command(sub)
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``stictionbench`` console script."""
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
     try:
+        # the sub-command is the first argument (the top level has no options of its
+        # own but --help, which lists every sub-command)
+        parser = build_parser(argv[0] if argv else None)
         args = parser.parse_args(argv)
         return int(args.func(args) or 0)
     except InputError as exc:
