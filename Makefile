@@ -63,6 +63,7 @@ concealed: venv
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --model-free
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --output-error
+	$(BIN)/python experiments/holdout_family.py --seeds 4 --none-seeds 8 --jobs 2
 	$(BIN)/python experiments/controller_rate_artefact.py
 	$(BIN)/python experiments/stiction_controller_rate.py
 	$(BIN)/python experiments/verdict_stability.py --trim 7 --jobs 2

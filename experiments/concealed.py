@@ -354,9 +354,14 @@ def summary(df: pd.DataFrame, tuned: tuple[float, float], lofo_tab: pd.DataFrame
               "![detectability](detectability.png)", "",
               "![detectability vs signal to noise](detectability_snr.png)", "",
               "![confusion](confusion.png)", "",
-              f"Diagnosis time per recording: median {df.seconds.median():.2f} s, max "
-              f"{df.seconds.max():.2f} s; total wall {wall:.0f} s with {args.jobs} workers."]
+              timing_line(df, wall, args.jobs)]
     return "\n".join(lines) + "\n"
+
+
+def timing_line(df: pd.DataFrame, wall: float, jobs: int) -> str:
+    """The report's line on diagnosis time (per recording, and the run's wall time)."""
+    return (f"Diagnosis time per recording: median {df.seconds.median():.2f} s, max "
+            f"{df.seconds.max():.2f} s; total wall {wall:.0f} s with {jobs} workers.")
 
 
 def main(argv=None) -> int:

@@ -76,6 +76,10 @@ def test_prediction_error_fits_find_the_transmitter_lag():
     ("deadband", {"valve": "deadband", "valve__deadband": 2.5}, "deadband", 2.5, 0.15),
     ("oscillatory_disturbance", {"disturbance": "sinusoidal", "disturbance__amplitude": 1.0,
                                  "disturbance__period": 90.0}, "period", 90.0, 0.15),
+    # under four cycles in the 3000 s record (T/4 was the old bound: answered `none`)
+    ("oscillatory_disturbance", {"disturbance": "sinusoidal", "disturbance__amplitude": 1.0,
+                                 "disturbance__period": 800.0, "sensor__time_constant": 0.0},
+     "period", 800.0, 0.05),
 ])
 def test_other_physics(cls, ov, key, true, rel):
     d = diagnose(_rec(**ov), NOM)
@@ -289,6 +293,13 @@ def test_select_rule_nested_and_thresholds():
     rows[1]["improvement"] = 0.02
     assert select(rows, 1e-6, alpha=0.01, min_improvement=0.05) == "stiction"
     assert select(rows, 0.2, alpha=0.01, min_improvement=0.05) == "deadband"
+    # ... but only when the stiction fit beats the nominal model on its own test: a
+    # training fit that resolves J while validating no better than the nominal is not
+    # stiction (a dead band of the holdout family, stiction p = 1, was named stiction)
+    rows[1]["p_value"] = 0.5
+    assert select(rows, 1e-6, alpha=0.01, min_improvement=0.05) == "deadband"
+    rows[1]["p_value"], rows[1]["at_bound"] = 1e-9, True
+    assert select(rows, 1e-6, alpha=0.01, min_improvement=0.05) == "deadband"
 
 
 def test_select_never_names_a_fit_on_a_search_bound():

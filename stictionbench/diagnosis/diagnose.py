@@ -339,8 +339,9 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit]) -> None:
             new.intervals, new.n_params = ft.intervals, ft.n_params
         elif h.basin_width(ft.ctx, ft.p) is not None:
             # a narrow-basin parameter (a line's period): the output-error optimum may sit
-            # in another basin (a slow load's), so the whole search is repeated
-            new = fit_hypothesis(prob, h)
+            # in another basin (a slow load's), so the whole search is repeated, the
+            # output-error optimum refined as well
+            new = fit_hypothesis(prob, h, also=[ft.p])
             new.n_params = ft.n_params
         else:
             new = refit_from(prob, h, ft.p)

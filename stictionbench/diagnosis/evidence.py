@@ -24,10 +24,12 @@ into its own, more flexible, noise model (Ljung, *System Identification*, 1999, 
   the training plus the validation blocks wins;
 - **nested physics**: stiction contains the dead band (``J = 0``): when either is
   named, stiction is named only when the ``1 − alpha`` interval of the slip jump
-  ``J`` excludes zero (the likelihood-ratio test of ``J = 0``) and the fitted ``J`` is
+  ``J`` excludes zero (the likelihood-ratio test of ``J = 0``), the fitted ``J`` is
   at least :data:`MIN_SLIP_FRACTION` of ``S`` (a resolution: with thousands of samples a
   slip of a few per cent of ``S`` becomes "significant" against the small model error
-  of any discrete replay);
+  of any discrete replay) and the stiction fit itself passes its likelihood-ratio test
+  against the nominal model on the validation blocks (the ``J`` interval comes from the
+  training blocks);
 - **residual analysis** of the named model: Ljung–Box whiteness of its innovations and
   their independence from the (pre-whitened) OP.
 """
@@ -193,10 +195,15 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
     # the nested pair is one family: once either member is named, the slip-jump test
     # decides between them, whichever of the two passed its own test against the nominal
     # (a dead band whose stiction extension needs J ≠ 0 is stiction)
+    # — and stiction must also beat the nominal model on its own likelihood-ratio test
+    # (a dead band named while the stiction fit does not beat the nominal is not stiction,
+    # however its training fit resolves J)
     if pick in ("stiction", "deadband") and slip_jump_p is not None:
-        st = next(r for r in rows if r["physics"] == "stiction")["parameters"]
+        row = next(r for r in rows if r["physics"] == "stiction")
+        st = row["parameters"]
         big = st.get("J", 0.0) >= min_slip_fraction * st.get("S", 0.0)
-        pick = "stiction" if slip_jump_p < alpha and big else "deadband"
+        own = row["p_value"] < alpha and not row.get("at_bound", False)
+        pick = "stiction" if slip_jump_p < alpha and big and own else "deadband"
     return pick
 
 

@@ -174,12 +174,17 @@ def _finish(prob: Problem, h: Hypothesis, evals: list[tuple[np.ndarray, float]],
 
 
 def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
-                   starts: int = 3) -> Fit:
+                   starts: int = 3, also: list[np.ndarray] | None = None) -> Fit:
     """Fit ``h``: evaluate its coarse grid, refine the best ``starts`` points with
-    Nelder–Mead, then add a local profile grid for the parameter intervals."""
+    Nelder–Mead, then add a local profile grid for the parameter intervals. ``also``:
+    further points refined whatever their cost (e.g. an earlier fit's optimum, so that a
+    refit under another criterion is never a worse search than its starting fit)."""
     evals, cost = _recorder(prob, h)
     for p in h.grid(prob.ctx):
         cost(np.asarray(p, float))
+    if h.params and refine:
+        for p0 in also or []:
+            _local_search(h, prob.ctx, np.asarray(p0, float), cost)
     if h.params and refine:
         order = sorted(range(len(evals)), key=lambda i: evals[i][1])
         seeds = [evals[i][0] for i in order[:starts]]

@@ -1,0 +1,317 @@
+"""A fourth generator family held out of all tuning: the shipped defaults scored on it.
+
+The three families of ``experiments/concealed.py`` set the diagnosis's thresholds (pooled)
+and give its leave-one-family-out numbers; they share one draw of plant, tuning, set-point
+steps and effect sizes (:func:`concealed_families.draw`) and their controllers run 2–5 ×
+faster than the 1 s historian. This family changes what those hold fixed and was never
+used to choose anything:
+
+- **loop**: written here, sharing no code with the simulator or the fitter. The PI runs
+  every 1 s, *in step with the historian* (velocity form, OP held between updates); the
+  process is a FOPDT integrated exactly in 0.1 s sub-steps with its dead time as a delay
+  line, so PV between controller instants is continuous;
+- **plant and tuning**: gain 0.3–5, time constant 3–120 s and dead time 5–80 % of it
+  (log-uniform; at least 1 s), lambda tuning ``kc = τ/(K(λ + θ))``, ``ti = τ`` with λ
+  0.5–2 τ (slower loops than SIMC's), set-point steps every 200–600 s;
+- **valves**: each sticky valve is one of Kano et al.'s (2004), He et al.'s (2007) or
+  Choudhury et al.'s (2005) two-parameter models, drawn per recording (each written again
+  here, from the papers' descriptions), with ``J/S`` 0.2–1; each dead band is a play
+  operator (backlash);
+- **disturbances**: white measurement noise (1–4 % of the mean set-point step at level 1,
+  3–10 % at level 2) and an integrated random-walk load (its spread 5–20 % of a step at
+  level 1, 30–100 % at level 2), as in the issue's description of the independent set.
+
+Every recording is diagnosed exactly as a user would (CSV + model YAML, the package's
+default thresholds). Outputs: ``reports/concealed/holdout.md`` and ``holdout.csv``.
+
+Run: ``.venv/bin/python experiments/holdout_family.py [--seeds 4] [--none-seeds 8]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "experiments"))
+
+from concealed import MAIN_PARAMETER, run_one, timing_line  # noqa: E402
+from concealed_families import CLASSES, DURATION, Case, choudhury_valve_step  # noqa: E402
+
+from stictionbench.io import atomic_path, write_text  # noqa: E402
+from stictionbench.rates import rate_text  # noqa: E402
+from stictionbench.reports.tables import to_markdown  # noqa: E402
+
+FAMILY = "holdout_sync"
+SUB = 10  # process sub-steps per 1 s controller/historian period
+VALVE_MODELS = ("kano", "he", "choudhury")
+
+
+def draw(cls: str, level: int, seed: int) -> Case:
+    """Plant, lambda-tuned PI, steps, noise, load and effect of one holdout recording."""
+    rng = np.random.default_rng([97, CLASSES.index(cls), level, seed])
+    K = math.exp(rng.uniform(math.log(0.3), math.log(5.0)))
+    tau = math.exp(rng.uniform(math.log(3.0), math.log(120.0)))
+    theta = max(1.0, tau * math.exp(rng.uniform(math.log(0.05), math.log(0.8))))
+    lam = tau * rng.uniform(0.5, 2.0)
+    kc, ti = tau / (K * (lam + theta)), tau
+    t, steps = 30.0, []
+    while t < DURATION - 150:
+        steps.append((round(t, 1), float(rng.choice([-1, 1]) * K * rng.uniform(2, 8))))
+        t += rng.uniform(200, 600)
+    mean_step = float(np.mean([abs(s) for _, s in steps]))
+    # the issue's two levels, drawn here again on purpose: the family shares no draw
+    # with the tuning families (concealed_families.draw)
+    noise_frac = rng.uniform(0.01, 0.04) if level == 1 else rng.uniform(0.03, 0.10)
+    effect = rng.uniform(0.4, 1.0) if level == 1 else rng.uniform(0.0, 0.5)
+    load = mean_step * (rng.uniform(0.05, 0.2) if level == 1 else rng.uniform(0.3, 1.0))
+    c = Case(FAMILY, cls, level, seed, K, tau, theta, kc, ti, lam + theta, steps,
+             noise_frac * mean_step, noise_frac, load, effect)
+    e = effect
+    if cls == "stiction":
+        S = 0.5 + 5.5 * e
+        c.truth = {"S": S, "J": S * rng.uniform(0.2, 1.0),
+                   "model": VALVE_MODELS[int(rng.integers(len(VALVE_MODELS)))]}
+    elif cls == "deadband":
+        c.truth = {"deadband": 0.5 + 4.5 * e}
+    elif cls == "sensor_lag":
+        c.truth = {"time_constant": tau * (0.2 + 1.0 * e)}
+    elif cls == "dead_time":
+        c.truth = {"dead_time": theta + theta * (0.3 + 1.2 * e) + 1.0}
+    elif cls == "valve_characteristic":
+        c.truth = {"rangeability": 5.0 + 45.0 * e}
+    elif cls == "saturation":
+        c.truth = {"quantile": 0.95 - 0.25 * e}
+    elif cls == "oscillatory_disturbance":
+        c.truth = {"period": float(c.lam_cl * math.exp(rng.uniform(math.log(2), math.log(50)))),
+                   "amplitude": float(mean_step * (0.05 + 0.5 * e))}
+    return c
+
+
+def kano_step(u: float, s: dict, S: float, J: float) -> float:
+    """Kano et al. (2004): the valve stops when OP's velocity changes sign or vanishes;
+    from rest it moves once OP has travelled ``S`` the other way or ``J`` the same way,
+    to ``u − d·(S − J)/2``."""
+    du = u - s["u_prev"]
+    if s["moving"] and (du == 0.0 or du * s["d"] < 0.0):
+        s["moving"], s["u_stop"] = False, s["u_prev"]
+    if not s["moving"]:
+        if s["d"] == 0.0:
+            go = abs(u - s["u_stop"]) > 0.5 * (S + J)
+            if go:
+                s["d"] = 1.0 if u > s["u_stop"] else -1.0
+        elif -s["d"] * (u - s["u_stop"]) > S:
+            s["d"], go = -s["d"], True
+        else:
+            go = s["d"] * (u - s["u_stop"]) > J
+        s["moving"] = go
+    if s["moving"]:
+        s["y"] = u - s["d"] * 0.5 * (S - J)
+    s["u_prev"] = u
+    return s["y"]
+
+
+def he_step(u: float, s: dict, S: float, J: float) -> float:
+    """He et al. (2007): the force ``u_r`` accumulated since the last move slips the
+    valve when it exceeds ``fs = (S + J)/2``, leaving ``fd = (S − J)/2`` behind."""
+    fs, fd = 0.5 * (S + J), 0.5 * (S - J)
+    s["ur"] += u - s["u_prev"]
+    if abs(s["ur"]) > fs:
+        sg = math.copysign(1.0, s["ur"])
+        s["y"] += s["ur"] - sg * fd
+        s["ur"] = sg * fd
+    s["u_prev"] = u
+    return s["y"]
+
+
+def _valve(c: Case, u: float, s: dict) -> float:
+    tr = c.truth
+    if c.cls == "stiction":
+        if tr["model"] == "kano":
+            return kano_step(u, s, tr["S"], tr["J"])
+        if tr["model"] == "he":
+            return he_step(u, s, tr["S"], tr["J"])
+        return choudhury_valve_step(u, s, tr["S"], tr["J"])
+    if c.cls == "deadband":
+        h = 0.5 * tr["deadband"]
+        s["y"] = min(max(s["y"], u - h), u + h)
+        return s["y"]
+    if c.cls == "saturation" and "op_high" in tr:
+        return min(u, tr["op_high"])
+    if c.cls == "valve_characteristic":
+        return 100.0 * tr["rangeability"] ** (min(max(u, 0.0), 100.0) / 100.0 - 1.0)
+    return u
+
+
+def simulate(c: Case, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """The loop at 0.1 s sub-steps, the PI and the historian every 1 s."""
+    n = int(DURATION) + 1
+    h = 1.0 / SUB
+    tr = c.truth
+    theta = tr.get("dead_time", c.theta)
+    a = math.exp(-h / c.tau)
+    lag = math.exp(-h / tr["time_constant"]) if c.cls == "sensor_lag" else 0.0
+    delay = int(round(theta / h))
+    sp = np.zeros(n)
+    for ts, step in c.steps:
+        sp[int(ts):] += step
+    noise = rng.normal(size=n) * c.noise
+    # integrated random walk, scaled so that its spread over the record is `load`
+    load = np.cumsum(np.cumsum(rng.normal(size=n)))
+    load = (load - load[0]) * c.load / max(float(np.std(load)), 1e-12)
+    osc = np.zeros(n)
+    if c.cls == "oscillatory_disturbance":
+        osc = tr["amplitude"] * np.sin(2 * math.pi * np.arange(n) / tr["period"]
+                                       + rng.uniform(0, 2 * math.pi))
+    op0 = 50.0
+    s = {"u_prev": op0, "moving": False, "u_stop": op0, "d": 0.0, "y": op0, "ur": 0.0,
+         "x_prev": op0, "v_prev": 0.0, "stuck": True, "x_ss": op0}
+    mv0 = _valve(c, op0, s)
+    line = [mv0] * delay  # MV applied θ ago (0.1 s resolution)
+    x, ym, op, e_prev = 0.0, 0.0, op0, 0.0
+    out = np.empty((n, 3))
+    for k in range(n):
+        pv = ym + noise[k]
+        e = sp[k] - pv
+        if k:
+            op = min(max(op + c.kc * ((e - e_prev) + e / c.ti), 0.0), 100.0)
+        e_prev = e
+        out[k] = (sp[k], pv, op)
+        mv = _valve(c, op, s)
+        for j in range(SUB):
+            line.append(mv)
+            x = a * x + (1.0 - a) * c.K * (line.pop(0) - mv0)
+            d = load[k] + (load[min(k + 1, n - 1)] - load[k]) * j / SUB + osc[k]
+            ym = lag * ym + (1.0 - lag) * (x + d)
+    return {"t": np.arange(n, dtype=float), "SP": out[:, 0], "PV": out[:, 1],
+            "OP": out[:, 2]}
+
+
+def make_recording(cls: str, level: int, seed: int) -> tuple[Case, dict[str, np.ndarray]]:
+    """Draw and simulate one holdout recording: ``(case, {t, SP, PV, OP})``."""
+    c = draw(cls, level, seed)
+    rng_seed = [97, CLASSES.index(cls), level, seed, 1]
+    if c.cls == "saturation":
+        q = c.truth.pop("quantile")
+        base = simulate(c, np.random.default_rng(rng_seed))
+        c.truth["op_high"] = float(np.quantile(base["OP"], q))
+    return c, simulate(c, np.random.default_rng(rng_seed))
+
+
+def generate(cls: str, level: int, seed: int, out: Path) -> dict:
+    """Write one recording (CSV, no MV) and its model YAML; return the job."""
+    c, sig = make_recording(cls, level, seed)
+    name = f"{FAMILY}_L{level}_{cls}_{seed:02d}"
+    csv, model = out / f"{name}.csv", out / f"{name}.yaml"
+    pd.DataFrame(sig).to_csv(csv, index=False)
+    model.write_text(
+        f"process: {{gain: {c.K:.6g}, time_constant: {c.tau:.6g}, dead_time: {c.theta:.6g}}}\n"
+        f"controller: {{kc: {c.kc:.6g}, ti: {c.ti:.6g}}}\nsample_time: 1.0\n")
+    truth = {k: v for k, v in c.truth.items() if k != "model"}
+    return {"name": name, "family": FAMILY, "class": cls, "level": level, "seed": seed,
+            "csv": str(csv), "model": str(model), "truth": truth, "effect": c.effect,
+            "noise_frac": c.noise_frac, "valve_model": c.truth.get("model", "")}
+
+
+def _error(r: pd.Series) -> float:
+    key = MAIN_PARAMETER.get(r["class"])
+    if key is None or r["predicted_default"] != r["class"]:
+        return math.nan
+    ev = {e["physics"]: e for e in json.loads(r["evidence"])}
+    truth = json.loads(r["truth"]).get(key)
+    fitted = ev.get(r["class"], {}).get("parameters", {}).get(key)
+    return abs(fitted / truth - 1) if truth and fitted is not None else math.nan
+
+
+def report(df: pd.DataFrame, args: argparse.Namespace, wall: float) -> str:
+    """The holdout family under the shipped defaults, per class and level."""
+    ok = df.predicted_default == df["class"]
+    err = df.apply(_error, axis=1)
+    rows = []
+    for (cls, lvl), g in df.groupby(["class", "level"], sort=False):
+        e = err[g.index].dropna()
+        wrong = g[~ok[g.index]]
+        rows.append({"class": cls, "level": lvl,
+                     "named correctly": rate_text(int(ok[g.index].sum()), len(g)),
+                     "median parameter error": f"{e.median():.0%}" if len(e) else "–",
+                     "misses named": ", ".join(f"{p}" for p in wrong.predicted_default)
+                     or "–"})
+    tab = pd.DataFrame(rows)
+    lines = ["# Holdout family: the shipped defaults on a generator never used for tuning",
+             "", f"Generated and diagnosed by `experiments/holdout_family.py` (`make "
+             f"concealed`; the family is described in its docstring): {len(df)} recordings "
+             f"of {DURATION:.0f} s at 1 s, PI in step with the historian, {args.seeds} seeds "
+             f"per class and level, {args.none_seeds} for `none`. Each is diagnosed as "
+             "`stictionbench diagnose REC.csv --model REC.yaml` with the package's default "
+             "thresholds, which were set on the three families of `summary.md`: **every "
+             "number here is out of sample**. Rates carry Wilson 95 % intervals.", "",
+             "Looked at since it was built, so not every number is blind any more: "
+             "(1) a Diebold–Mariano test on the validation simulation errors, tried and "
+             "rejected (one more `none` recording called physics here, level 2 "
+             "unchanged); (2) the oscillatory disturbance's longest period, T/4 → T/2, "
+             "chosen on the three families (one more disturbance named there and here, "
+             "no more false alarms on either); (3) stiction named only when the stiction "
+             "fit itself passes its test against the nominal model: prompted by this "
+             "family's `holdout_sync_L2_deadband_01` (named stiction with a stiction "
+             "fit 4 % *worse* than the nominal), checked on the three families (no "
+             "change with the model; "
+             "4 model-free recordings of other physics no longer called stiction, no "
+             "sticky valve lost) — that recording's verdict is in-sample for the rule. "
+             "No threshold was set on this family.", ""]
+    for lvl in (1, 2):
+        g = df.level == lvl
+        phys, none = g & (df["class"] != "none"), g & (df["class"] == "none")
+        per16 = 16 * ok[g].mean()
+        lines.append(f"- level {lvl}: named {rate_text(int(ok[g].sum()), int(g.sum()))} "
+                     f"(≈ {per16:.1f} of 16 at this rate); physics classes "
+                     f"{rate_text(int(ok[phys].sum()), int(phys.sum()))}; `none` called "
+                     f"physics {rate_text(int((~ok[none]).sum()), int(none.sum()))}")
+    st = df[df["class"] == "stiction"]
+    by_model = [f"{m}: {rate_text(int(ok[g.index].sum()), len(g))}"
+                for m, g in st.groupby("valve_model")]
+    lines += [f"- sticky valves named `stiction`, by the valve model that made them: "
+              f"{'; '.join(by_model)}", "", to_markdown(tab), "",
+              timing_line(df, wall, args.jobs)]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=4)
+    ap.add_argument("--none-seeds", type=int, default=8)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--out", default=str(ROOT / "reports" / "concealed"))
+    a = ap.parse_args(argv)
+    from joblib import Parallel, delayed
+    from tqdm import tqdm
+
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        jobs = [generate(c, lvl, s, Path(tmp)) for lvl in (1, 2) for c in CLASSES
+                for s in range(a.none_seeds if c == "none" else a.seeds)]
+        rows = list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator")(
+            delayed(run_one)(j) for j in jobs), total=len(jobs), desc="diagnose"))
+    df = pd.DataFrame(rows)
+    df["valve_model"] = [j["valve_model"] for j in jobs]
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out / "holdout.csv") as tmp_csv:
+        df.round({"effect": 6, "noise_frac": 6, "seconds": 3}).to_csv(
+            tmp_csv, index=False, lineterminator="\n", float_format="%.6g")
+    text = report(df, a, time.perf_counter() - t0)
+    write_text(out / "holdout.md", text)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
