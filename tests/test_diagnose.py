@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from stictionbench.cli import main
 from stictionbench.diagnosis import VOCABULARY, NominalModel, diagnose
 from stictionbench.diagnosis.diagnose import compare, fit, hypothesise, locate, validate
 from stictionbench.diagnosis.evidence import select
-from stictionbench.diagnosis.hypotheses import HYPOTHESES
+from stictionbench.diagnosis.hypotheses import HYPOTHESES, Context
 from stictionbench.diagnosis.locate import dominant_periods, tone_periods
 from stictionbench.diagnosis.noise import fit_noise_model, input_independence, ljung_box, lr_test
 from stictionbench.errors import InputError
@@ -320,6 +321,19 @@ def test_oscillation_period_on_its_range_end_is_flagged(deadband_stages):
     assert not osc.at_bound(ctx, np.array([math.sqrt(lo * hi)]))
     # the valve's S = 0 is physics (no valve), not a search limit
     assert not HYPOTHESES["stiction"].at_bound(ctx, np.array([1e-3, 0.0, 0.0]))
+
+
+def test_oscillation_periods_reach_half_the_record_only_with_a_given_model():
+    t = np.arange(3001.0)
+    ctx = Context(t, np.zeros(t.size), np.zeros(t.size), 1.0, 10.0, 10.0, 1e-6)
+    osc = HYPOTHESES["oscillatory_disturbance"]
+    lo, hi = osc.bounds(ctx)[0]
+    assert hi == pytest.approx(1500.0)
+    lo_free, hi_free = osc.bounds(replace(ctx, model_given=False))[0]
+    # without a model: four cycles in the record; the range's low end does not move
+    assert hi_free == pytest.approx(750.0) and lo_free == pytest.approx(lo)
+    # a slow-load high-pass caps both
+    assert osc.bounds(replace(ctx, f_hp=0.01))[0][1] == pytest.approx(200.0)
 
 
 def test_model_free_nominal_is_the_better_linear_identification():

@@ -201,7 +201,7 @@ def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: flo
                          f"model's time scales (θ + 3τ = {theta + 3 * tau:g} s)")
     blocks = [np.arange(edges[i], edges[i + 1]) for i in range(N_BLOCKS)]
     ctx = Context(rec.t - rec.t[0], np.asarray(rec.OP, float), np.asarray(rec.PV, float),
-                  Ts, tau, theta, f_hp, f_lp=f_lp)
+                  Ts, tau, theta, f_hp, f_lp=f_lp, model_given=model.source == "given")
     prob = Problem(ctx, f_hp, np.concatenate(blocks[0::2]), np.concatenate(blocks[1::2]),
                    f_lp)
     # the recording convention (OP stored before or after the controller executed, a

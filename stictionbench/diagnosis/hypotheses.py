@@ -69,6 +69,9 @@ class Context:
     #: low-pass corner (Hz) of the comparison band (``None``: :func:`lowpass_corner`
     #: without an oscillation)
     f_lp: float | None = None
+    #: ``tau`` and ``theta`` come from a model the user gave (``False``: identified from
+    #: the recording, possibly biased by regulatory data)
+    model_given: bool = True
 
     @property
     def op_span(self) -> float:
@@ -304,16 +307,20 @@ class OscillatoryDisturbance(Hypothesis):
     interior_only = True
 
     def _max_period(self, ctx):
-        # at least two cycles in the record, and no slower than twice the slow-load
-        # high-pass period: the 2nd-order high-pass keeps a quarter of such a sine's
-        # amplitude, a pure line that the noise model of a broadband drifting load does
-        # not explain; a slower "oscillation" is a load. (Four cycles, T/4, missed every
-        # disturbance of period above 750 s in 3000 s records of the concealed benchmark,
-        # whose periods reach 50 closed-loop time constants; T/2 named one more of them
-        # and no more `none` recordings, 0/72: reports/concealed/summary.md.)
+        # at least two cycles in the record (four without a given model), and no slower
+        # than twice the slow-load high-pass period: the 2nd-order high-pass keeps a
+        # quarter of such a sine's amplitude, a pure line that the noise model of a
+        # broadband drifting load does not explain; a slower "oscillation" is a load.
+        # Four cycles, T/4, missed every disturbance of period above 750 s in 3000 s
+        # records of the concealed benchmark, whose periods reach 50 closed-loop time
+        # constants; T/2 named one more there (reports/concealed/summary.md), no more
+        # `none` recordings. Without a model the high-pass follows an identified τ + θ
+        # that regulatory data can inflate a hundredfold, and T/2 named a random-walk
+        # load an oscillation on ideal-valve loops (reports/diagnose/regulatory_bias.md
+        # and fast_loops.md: 3 and 4 more calls), so T/4 stays there.
         T = ctx.t[-1] - ctx.t[0]
         hp = 2.0 / ctx.f_hp if ctx.f_hp else np.inf
-        return max(5 * ctx.Ts, min(T / 2, hp))
+        return max(5 * ctx.Ts, min(T / 2 if ctx.model_given else T / 4, hp))
 
     def _min_period(self, ctx):
         # no faster than half the comparison band's low-pass corner period (above the
