@@ -52,6 +52,7 @@ from concealed_families import (  # noqa: E402
     CLASSES,
     DURATION,
     FAMILIES,
+    Case,
     make_recording,
     nominal_model,
 )
@@ -80,7 +81,13 @@ def generate(cls: str, level: int, seed: int, out: Path,
              family: str = "sim_physical") -> dict:
     """Write one recording (CSV, no MV) and its nominal-model YAML; return the job."""
     c, sig = make_recording(family, cls, level, seed)
-    name = f"{family}_L{level}_{cls}_{seed:02d}"
+    return write_job(c, sig, out)
+
+
+def write_job(c: Case, sig: dict[str, np.ndarray], out: Path) -> dict:
+    """Write case ``c``'s recording ``sig`` (t, SP, PV, OP; no MV) as a CSV and its plant
+    and PI as the model YAML a user would give; return the job :func:`run_one` takes."""
+    name = f"{c.family}_L{c.level}_{c.cls}_{c.seed:02d}"
     csv = Path(out) / f"{name}.csv"
     pd.DataFrame({k: sig[k] for k in ("t", "SP", "PV", "OP")}).to_csv(csv, index=False)
     model, m = Path(out) / f"{name}.yaml", nominal_model(c)
@@ -88,9 +95,9 @@ def generate(cls: str, level: int, seed: int, out: Path,
         f"process: {{gain: {m.gain:.6g}, time_constant: {m.time_constant:.6g}, "
         f"dead_time: {m.dead_time:.6g}}}\n"
         f"controller: {{kc: {m.kc:.6g}, ti: {m.ti:.6g}}}\nsample_time: 1.0\n")
-    return {"name": name, "family": family, "class": cls, "level": level, "seed": seed,
-            "csv": str(csv), "model": str(model), "truth": c.truth, "effect": c.effect,
-            "noise_frac": c.noise_frac}
+    return {"name": name, "family": c.family, "class": c.cls, "level": c.level,
+            "seed": c.seed, "csv": str(csv), "model": str(model), "truth": c.truth,
+            "effect": c.effect, "noise_frac": c.noise_frac}
 
 
 def run_one(job: dict) -> dict:

@@ -185,7 +185,6 @@ def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
     if h.params and refine:
         for p0 in also or []:
             _local_search(h, prob.ctx, np.asarray(p0, float), cost)
-    if h.params and refine:
         order = sorted(range(len(evals)), key=lambda i: evals[i][1])
         seeds = [evals[i][0] for i in order[:starts]]
         k = len(h.params)

@@ -318,9 +318,15 @@ class OscillatoryDisturbance(Hypothesis):
         # that regulatory data can inflate a hundredfold, and T/2 named a random-walk
         # load an oscillation on ideal-valve loops (reports/diagnose/regulatory_bias.md
         # and fast_loops.md: 3 and 4 more calls), so T/4 stays there.
+        return self._slowest(ctx, 2 if ctx.model_given else 4)
+
+    @staticmethod
+    def _slowest(ctx, cycles: int) -> float:
+        # a period with ``cycles`` cycles in the record, at most twice the slow-load
+        # high-pass period and at least five samples
         T = ctx.t[-1] - ctx.t[0]
         hp = 2.0 / ctx.f_hp if ctx.f_hp else np.inf
-        return max(5 * ctx.Ts, min(T / 2 if ctx.model_given else T / 4, hp))
+        return max(5 * ctx.Ts, min(T / cycles, hp))
 
     def _min_period(self, ctx):
         # no faster than half the comparison band's low-pass corner period (above the
@@ -330,12 +336,10 @@ class OscillatoryDisturbance(Hypothesis):
         # how OP is recorded between controller updates; fitted by prediction error they
         # are not (experiments/controller_rate_artefact.py), and the τ bound missed
         # disturbances of a few closed-loop time constants in tightly tuned loops
-        # (clamped to an eighth of the record or half the high-pass period: the range's
-        # low end does not move when its top end does)
+        # (clamped to half the four-cycle top end: the range's low end does not move
+        # when the top end does)
         f_lp = ctx.f_lp or lowpass_corner(ctx.Ts, ctx.tau)
-        T = ctx.t[-1] - ctx.t[0]
-        hp = 2.0 / ctx.f_hp if ctx.f_hp else np.inf
-        return min(max(4 * ctx.Ts, 0.5 / f_lp), 0.5 * max(5 * ctx.Ts, min(T / 4, hp)))
+        return min(max(4 * ctx.Ts, 0.5 / f_lp), 0.5 * self._slowest(ctx, 4))
 
     def basin_width(self, ctx, p):
         # a sinusoid fit's cost basin is ~1/T wide in frequency: ln P moves by ~P/T

@@ -43,7 +43,7 @@ def fopdt_response(u: np.ndarray, Ts: float, tau: float, theta: float) -> np.nda
     return lfilter(b, a, u - u[0], axis=0)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True)
 def fopdt_biquad(u, a, w_new, w_old, d, hb, ha):
     """FOPDT (``y[k] = a·y[k−1] + w_new·x[k−1−d] + w_old·x[k−2−d]``, ``x = u − u[0]``)
     followed by the biquad ``hb/ha`` (e.g. a high-pass prefilter), along the first axis
@@ -86,7 +86,7 @@ def first_order_lag(y: np.ndarray, Ts: float, tau: float) -> np.ndarray:
     return lfilter([1.0 - a], [1.0, -a], y - y[0]) + y[0]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True)
 def stiction_valve(op, S, J, delta=0.0):
     """Kano et al. (2004) two-parameter stiction model on an OP sequence (% of span).
 
@@ -136,7 +136,7 @@ def stiction_valve(op, S, J, delta=0.0):
     return mv
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True)
 def play(op, width):
     """Backlash/deadband (play operator) of total ``width`` on an OP sequence."""
     n = op.size
