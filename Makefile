@@ -48,6 +48,7 @@ real: venv
 	$(BIN)/stictionbench compare $(DATA)/isdb $(DATA)/plant --out reports/real --consensus conf/consensus/default.yaml
 	$(BIN)/stictionbench batch $(DATA)/isdb --labels $(DATA)/isdb/labels.csv --diagnose flagged --json reports/real/isdb/batch.json --report reports/real/isdb
 	$(BIN)/stictionbench batch $(DATA)/plant --labels $(DATA)/plant/labels.csv --diagnose flagged --json reports/real/plant/batch.json --report reports/real/plant
+	$(BIN)/stictionbench batch $(DATA)/factory --diagnose flagged --json reports/real/factory/batch.json --report reports/real/factory
 	$(BIN)/stictionbench oscillation-benchmark $(DATA)/isdb-oscillation/benchmark.mat --out reports/real/oscillation
 	$(BIN)/python experiments/fast_loops.py
 	$(BIN)/python experiments/regulatory_bias.py

@@ -10,8 +10,9 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
+import sys
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import InputError
-from .recording import REQUIRED, SIGNALS, Recording
+from .recording import MAX_INTERPOLATED_GAP, REQUIRED, SIGNALS, Recording
 
 COLUMNS = ("t",) + SIGNALS
 
@@ -122,16 +123,56 @@ def read_recording(path: str | os.PathLike[str], *, warn: bool = True) -> Record
         Missing path, directory, empty or binary file, missing columns, text in a
         numeric column, and every rule of :meth:`Recording.from_arrays`.
     """
+    source, cols, first_row = _read_columns(path)
+    return Recording.from_arrays(cols["t"], cols["PV"], cols["OP"], SP=cols.get("SP"),
+                                 MV=cols.get("MV"), source=source, first_row=first_row,
+                                 warn=warn)
+
+
+def read_stretches(path: str | os.PathLike[str], *, warn: bool = True) -> list[Recording]:
+    """Read a recording that may have long gaps: one Recording per usable stretch
+    between gaps longer than the interpolation limit (:mod:`stictionbench.stretches`),
+    the whole record when it has none.
+
+    Raises
+    ------
+    InputError
+        As :func:`read_recording`, and when no stretch is long enough.
+    """
+    from .stretches import split_at_gaps
+
+    source, cols, first_row = _read_columns(path)
+    return split_at_gaps(cols, source=source, first_row=first_row, warn=warn)
+
+
+def read_longest_stretch(path: str | os.PathLike[str], *, warn: bool = True) -> Recording:
+    """The longest usable stretch of a recording (:func:`read_stretches`); a warning on
+    stderr names the rows used and the stretches left out."""
+    parts = read_stretches(path, warn=warn)
+    best = max(parts, key=len)
+    if len(parts) > 1 and warn:
+        rows = best.meta["rows"]
+        others = ", ".join(f"rows {r.meta['rows'][0]}–{r.meta['rows'][1]}"
+                           for r in parts if r is not best)
+        print(f"stictionbench: warning: {path}: gaps of more than {MAX_INTERPOLATED_GAP} "
+              f"missing samples cut the record into {len(parts)} usable stretches; using "
+              f"the longest, rows {rows[0]}–{rows[1]} ({len(best)} samples); not used: "
+              f"{others}", file=sys.stderr)
+    return best
+
+
+def _read_columns(path: str | os.PathLike[str]) -> tuple[str, dict[str, Any], int]:
+    """``(source, columns, first row)`` of a ``.csv`` or ``.parquet`` recording file."""
     p = check_input_file(path)
     suffix = p.suffix.lower()
     if suffix == ".parquet":
-        return _read_parquet(p, warn=warn)
+        return _read_parquet(p)
     if suffix in (".csv", ".txt", ""):
-        return _read_csv(p, warn=warn)
+        return _read_csv(p)
     raise InputError(f"{p}: unknown format {suffix!r}; use .csv or .parquet")
 
 
-def _read_csv(p: Path, *, warn: bool) -> Recording:
+def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
     head = p.read_bytes()[:4096]
     if b"\x00" in head:
         raise InputError(f"{p}: binary data, not a CSV text file")
@@ -144,27 +185,19 @@ def _read_csv(p: Path, *, warn: bool) -> Recording:
     except pd.errors.ParserError as exc:
         raise InputError(f"{p}: not a valid CSV file ({str(exc).splitlines()[0]})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
-    return _frame_to_recording(frame, str(p), first_row=2, warn=warn, text=True)
+    return str(p), _frame_columns(frame, str(p), first_row=2, text=True), 2
 
 
-def _read_parquet(p: Path, *, warn: bool) -> Recording:
+def _read_parquet(p: Path) -> tuple[str, dict[str, Any], int]:
     try:
         frame = pd.read_parquet(p)
     except Exception as exc:  # pyarrow raises several types for corrupt files
         raise InputError(f"{p}: not a readable Parquet file ({type(exc).__name__})") from None
-    meta: dict[str, Any] = {}
-    return _frame_to_recording(frame, str(p), first_row=0, warn=warn, text=False, meta=meta)
+    return str(p), _frame_columns(frame, str(p), first_row=0, text=False), 0
 
 
-def _frame_to_recording(
-    frame: pd.DataFrame,
-    source: str,
-    *,
-    first_row: int,
-    warn: bool,
-    text: bool,
-    meta: Mapping[str, Any] | None = None,
-) -> Recording:
+def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bool
+                   ) -> dict[str, Any]:
     missing = [c for c in REQUIRED if c not in frame.columns]
     if missing:
         raise InputError(
@@ -193,17 +226,7 @@ def _frame_to_recording(
                 cols[name] = pd.to_numeric(col, errors="raise").to_numpy(dtype=float)
             except (ValueError, TypeError):
                 raise InputError(f"{source}: column {name} is not numeric") from None
-    return Recording.from_arrays(
-        cols["t"],
-        cols["PV"],
-        cols["OP"],
-        SP=cols.get("SP"),
-        MV=cols.get("MV"),
-        meta=meta,
-        source=source,
-        first_row=first_row,
-        warn=warn,
-    )
+    return cols
 
 
 def write_recording(rec: Recording, path: str | os.PathLike[str]) -> Path:

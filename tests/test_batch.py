@@ -101,3 +101,22 @@ def test_isdb_balanced_accuracy(data_dir):
     loops = loop_verdicts(windows, ["ellipse"])
     ba = balanced_accuracy(loops["label"], loops["ellipse"])
     assert len(loops) == 14 and ba >= 0.9
+
+
+def test_a_file_cut_by_an_outage_gives_windows_of_one_loop(loops, tmp_path):
+    # a historian outage longer than the interpolation limit no longer skips the file:
+    # each usable stretch is a window of the file's loop, and keeps the file's label
+    import numpy as np
+
+    from stictionbench.realdata.datasets import load_csv_dir
+
+    frame = loops["sticky"].to_frame()[["t", "SP", "PV", "OP"]]
+    frame.loc[1500:1559, ["PV", "OP"]] = np.nan
+    frame.to_csv(tmp_path / "outage.csv", index=False)
+    (tmp_path / "labels.csv").write_text("loop,label\noutage,stiction\n")
+    recs, skipped = load_csv_dir(tmp_path, warn=False)
+    assert [s[0] for s in skipped] == ["labels.csv"]
+    assert list(recs) == ["outage@2-1501", "outage@1562-3002"]  # file rows
+    for r in recs.values():
+        assert r.meta["group"] == "outage" and r.meta["label"] == "stiction"
+    assert len(recs["outage@2-1501"]) == 1500

@@ -231,6 +231,10 @@ def test_json_adds_noise_model_and_tests():
     assert js["noise_model"]["family"] in ("AR", "ARI")
     assert {"statistic", "p_value"} <= set(js["tests"]["whiteness"])
     assert {"nominal", "improved", "innovation_variance"} <= set(js["fit"])
+    # a given model fixes the process: no valve hypothesis is gated by the identification
+    assert all(r["p_gate"] is None for r in js["ranking"])
+    # a correct model in closed loop passes the residual analysis against past OP
+    assert js["tests"]["independence_from_op"]["p_value"] > 0.01
 
 
 def test_noise_model_recovers_ar_and_integration():
@@ -271,6 +275,23 @@ def test_lr_and_independence_statistics():
     assert input_independence(rng.normal(size=2000), u)["p_value"] > 0.001
     assert input_independence(np.r_[0.0, u[:-1]] + 0.3 * rng.normal(size=2000), u)[
         "p_value"] < 1e-6
+
+
+def test_independence_from_op_is_calibrated_under_feedback():
+    # closed loop with a right model: OP (a coloured signal) reacts to the current
+    # innovation, and past OP does not predict it. The test must hold its level there
+    # (it rejected every correct model while it included lag 0 and left OP coloured);
+    # a residual that past OP does predict is still caught
+    rng = np.random.default_rng(7)
+    p = []
+    for _ in range(40):
+        e = rng.normal(size=1500)
+        u = lfilter([1.0], [1.0, -0.95], rng.normal(size=1500)) - 2.0 * e
+        p.append(input_independence(e, u)["p_value"])
+    assert np.mean(np.array(p) < 0.05) <= 0.15
+    e = rng.normal(size=1500)
+    u = lfilter([1.0], [1.0, -0.95], rng.normal(size=1500))
+    assert input_independence(e + 0.1 * np.r_[0.0, 0.0, u[:-2]], u)["p_value"] < 1e-3
 
 
 def test_select_rule_nested_and_thresholds():
@@ -354,6 +375,10 @@ def test_model_free_nominal_is_the_better_linear_identification():
     assert v.pick == "none"
     # against the FOPDT of compare, the dead band's likelihood ratio gave p ≈ 1e-6 here
     assert all(r["p_value"] > 1e-3 for r in v.ranking if r["physics"] != "none")
+    # the valve hypotheses carry the identification's own test (intersection–union)
+    for r in v.ranking:
+        if r["physics"] in ("deadband", "stiction") and ham.S > 0:
+            assert r["p_gate"] is not None and r["p_value"] >= r["p_gate"]
 
 
 def test_dead_time_within_the_alignment_range_is_not_physics(deadband_stages):
@@ -450,3 +475,74 @@ def test_fopdt_biquad_is_the_two_filters_it_fuses(tau, theta):
         np.testing.assert_array_equal(
             fopdt_biquad(np.ascontiguousarray(u[:, -1:]), -a[1], b[d + 1], b[d + 2], d, hb,
                          ha)[:, 0], ours[:, -1])
+
+
+def test_valve_characteristic_does_not_depend_on_op_units():
+    # the same loop recorded with OP in per cent and as a fraction of the valve's travel
+    # (gain ×100, Kc ÷100): the same physics and rangeability; with OP mean-removed the
+    # characteristic cannot be placed, so it is not tested and the diagnosis says why
+    rec = _rec(valve__characteristic="equal_percentage", valve__rangeability=30.0,
+               sensor__time_constant=0.0)
+    pct = diagnose(rec, NOM)
+    assert pct.missing_physics == "valve_characteristic"
+    assert pct.details["op_range"] == [0.0, 100.0]
+    frac = sb.Recording.from_arrays(rec.t, rec.PV, rec.OP / 100.0, SP=rec.SP)
+    d = diagnose(frac, replace(NOM, gain=300.0, kc=0.002))
+    assert d.details["op_range"] == [0.0, 1.0]
+    assert d.missing_physics == "valve_characteristic"
+    assert d.parameters["rangeability"] == pytest.approx(pct.parameters["rangeability"],
+                                                         rel=0.05)
+    centred = sb.Recording.from_arrays(rec.t, rec.PV, rec.OP - rec.OP.mean(), SP=rec.SP)
+    d = diagnose(centred, NOM)
+    assert d.details["op_range"] is None and "valve_characteristic" in d.details["not_tested"]
+    assert all(r["physics"] != "valve_characteristic" for r in d.ranking)
+    # the user's range restores the test
+    d = diagnose(centred, NOM, op_range=(-rec.OP.mean(), 100.0 - rec.OP.mean()))
+    assert d.missing_physics == "valve_characteristic"
+
+
+def test_op_range_in_the_model_yaml_and_on_the_command_line(tmp_path, capsys):
+    from stictionbench.diagnosis import load_model
+    y = tmp_path / "m.yaml"
+    y.write_text(MODEL + "op_range: [4, 20]\n")
+    assert load_model(y).op_range == (4.0, 20.0)
+    y.write_text(MODEL + "op_range: [20, 4]\n")
+    with pytest.raises(InputError, match="op_range"):
+        load_model(y)
+    csv = tmp_path / "r.csv"
+    _rec().to_frame()[["t", "SP", "PV", "OP"]].to_csv(csv, index=False)
+    assert main(["diagnose", str(csv), "--json", str(tmp_path / "o.json"),
+                 "--op-range", "5", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "--op-range" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_diagnose_uses_the_longest_stretch_of_a_record_with_an_outage(tmp_path, capsys):
+    frame = _rec().to_frame()[["t", "SP", "PV", "OP"]]
+    frame.loc[2000:2063, "PV"] = float("nan")  # a 64-sample outage
+    csv = tmp_path / "outage.csv"
+    frame.to_csv(csv, index=False)
+    out = tmp_path / "o.json"
+    assert main(["diagnose", str(csv), "--model", str(_model_file(tmp_path)),
+                 "--json", str(out)]) == 0
+    payload = json.loads(out.read_text())
+    assert payload["rows"] == [2, 2001]
+    assert "rows 2066–3002" in capsys.readouterr().err
+
+
+def _model_file(tmp_path):
+    p = tmp_path / "model.yaml"
+    p.write_text(MODEL)
+    return p
+
+
+def test_a_model_worse_than_the_mean_is_flagged(data_dir):
+    # ISDB CHEM12 (mean-removed, regulatory): the FOPDT identified from OP → PV predicts
+    # PV worse than its mean on the validation blocks; a correct given model does not
+    from stictionbench.io import read_recording
+
+    d = diagnose(read_recording(data_dir / "isdb" / "CHEM12.csv", warn=False))
+    assert d.fit["nominal"] >= 1.0 and "no better than PV's mean" in d.details["model_warning"]
+    assert d.details["op_range"] is None  # mean-removed OP: no valve characteristic
+    assert "model_warning" not in diagnose(_rec(sensor__time_constant=0.0), NOM).details

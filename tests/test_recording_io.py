@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from stictionbench import InputError, Recording
@@ -142,3 +143,40 @@ def test_recording_is_read_only():
         rec.PV[0] = 3.0
     with pytest.raises(AttributeError):
         rec.Ts = 2.0  # type: ignore[misc]
+
+
+def test_long_gaps_cut_the_record_into_usable_stretches(tmp_path, capsys):
+    # an outage of 64 samples and one of 23 (with a stretch of 7 between them, too
+    # short to use): the strict reader refuses, the stretch reader keeps both long parts
+    from stictionbench.io import read_longest_stretch, read_stretches
+    from stictionbench.stretches import stretches
+
+    n = 1200
+    t = np.arange(n, dtype=float)
+    pv = np.sin(t / 15.0)
+    op = np.cos(t / 15.0)
+    pv[700:764] = np.nan
+    pv[771:794] = np.nan
+    pv[300] = np.nan  # a short gap inside a stretch: interpolated as before
+    p = tmp_path / "outage.csv"
+    pd.DataFrame({"t": t, "PV": pv, "OP": op}).to_csv(p, index=False)
+    with pytest.raises(InputError, match="gap of 64"):
+        read_recording(p)
+    parts = read_stretches(p, warn=False)
+    assert [r.meta["rows"] for r in parts] == [[2, 701], [796, 1201]]  # file rows
+    assert len(parts[0]) == 700 and np.isfinite(parts[0].PV).all()
+    assert parts[0].t[0] == 0.0 and parts[1].t[0] == 794.0
+    best = read_longest_stretch(p)
+    assert best is not None and len(best) == 700
+    err = capsys.readouterr().err
+    assert "2 usable stretches" in err and "rows 796–1201" in err
+    # a record without long gaps is read whole, unchanged
+    pv2 = np.sin(t / 15.0)
+    q = tmp_path / "clean.csv"
+    pd.DataFrame({"t": t, "PV": pv2, "OP": op}).to_csv(q, index=False)
+    (whole,) = read_stretches(q)
+    assert len(whole) == n and "rows" not in whole.meta
+    # nothing long enough between outages: the strict reader's message
+    m = np.zeros(150, bool)
+    m[60:70] = True
+    assert stretches(m) == []

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 from ..errors import InputError
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
-    from ..io import read_recording, write_text
+    from ..io import read_longest_stretch, write_text
     from ..validation import refuse_overwrite
     from .diagnose import diagnose
     from .model import load_model
@@ -20,10 +21,18 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         raise InputError("diagnose needs --json OUT.json")
     refuse_overwrite([args.json, args.report], [args.recording, args.model])
     model = load_model(args.model) if args.model else None
-    rec = read_recording(args.recording)
-    d = diagnose(rec, model)
+    rec = read_longest_stretch(args.recording)
+    op_range = None
+    if args.op_range:
+        lo, hi = args.op_range
+        if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+            raise InputError(f"--op-range: expected LO HI with HI > LO, got {lo:g} {hi:g}")
+        op_range = (lo, hi)
+    d = diagnose(rec, model, op_range=op_range)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
+    if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
+        payload["rows"] = list(rec.meta["rows"])
     if args.report:
         write_report(d, args.report)
     write_text(args.json, json.dumps(payload, indent=2, allow_nan=False,
@@ -33,8 +42,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     print(f"{args.recording}: {d.missing_physics}" + (f" ({params})" if params else "")
           + f"; validation NRMSE {f['nominal']:.3f} -> {f['improved']:.3f}; "
           f"model {d.model.source}; {d.details['seconds']:.1f} s")
-    if d.details.get("warning"):
-        print(f"stictionbench: warning: {d.details['warning']}", file=sys.stderr)
+    for key in ("warning", "model_warning"):
+        if d.details.get(key):
+            print(f"stictionbench: warning: {d.details[key]}", file=sys.stderr)
     return 0
 
 
@@ -53,4 +63,8 @@ def add_command(sub) -> None:
     p.add_argument("--model", help="nominal model YAML (identified from the data if absent)")
     p.add_argument("--json", required=False, metavar="OUT.json")
     p.add_argument("--report", metavar="DIR", help="write figures and summary.md here")
+    p.add_argument("--op-range", nargs=2, type=float, metavar=("LO", "HI"),
+                   help="OP's 0 and 100 %% in its own units, for the valve characteristic "
+                        "(default: the model's op_range, else per cent or a fraction "
+                        "recognised from the data, else that hypothesis is not tested)")
     p.set_defaults(func=cmd_diagnose)

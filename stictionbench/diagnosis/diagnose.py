@@ -49,6 +49,7 @@ from .locate import (
 )
 from .model import NominalModel, identify_pi
 from .noise import fit_noise_model
+from .op_range import infer_op_range
 from .openloop import highpass
 from .process import (
     MIN_SETPOINT_EXCITATION,
@@ -159,8 +160,7 @@ def _nominal_model(rec: Recording, model: NominalModel | None,
     if model.kc is None and rec.SP is not None:
         pi = identify_pi(rec)
         if pi:
-            return NominalModel(model.gain, model.time_constant, model.dead_time, pi[0],
-                                pi[1], model.sample_time, model.source)
+            return replace(model, kc=pi[0], ti=pi[1])
     return model
 
 
@@ -181,12 +181,15 @@ def _fit_aligned(cmp_prob: Problem, h, shifts: list[float]) -> Fit:
 
 
 def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: float = 0.3,
-            lp_factor: float = 5.0, pem: bool = True) -> Comparison:
+            lp_factor: float = 5.0, pem: bool = True,
+            op_range: tuple[float, float] | None = None) -> Comparison:
     """Stage 1: the nominal model (given, or identified FOPDT) replayed from the recorded
     OP, its training/validation split and its output-error fit (see the module
     docstring). ``pem`` (default) asks :func:`fit` to refit every hypothesis by its
     one-step prediction errors; ``pem=False`` keeps the output-error fits (the earlier
-    method, for comparison: ``experiments/concealed.py --output-error``)."""
+    method, for comparison: ``experiments/concealed.py --output-error``). ``op_range``
+    (OP's 0 and 100 %) overrides the model's and the one recognised from the data
+    (:mod:`.op_range`)."""
     _check(rec)
     model = _nominal_model(rec, model, hp_factor)
     n, Ts = len(rec), rec.Ts
@@ -201,7 +204,8 @@ def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: flo
                          f"model's time scales (θ + 3τ = {theta + 3 * tau:g} s)")
     blocks = [np.arange(edges[i], edges[i + 1]) for i in range(N_BLOCKS)]
     ctx = Context(rec.t - rec.t[0], np.asarray(rec.OP, float), np.asarray(rec.PV, float),
-                  Ts, tau, theta, f_hp, f_lp=f_lp, model_given=model.source == "given")
+                  Ts, tau, theta, f_hp, f_lp=f_lp, model_given=model.source == "given",
+                  op_range=op_range or model.op_range or infer_op_range(rec.OP))
     prob = Problem(ctx, f_hp, np.concatenate(blocks[0::2]), np.concatenate(blocks[1::2]),
                    f_lp)
     # the recording convention (OP stored before or after the controller executed, a
@@ -251,6 +255,9 @@ def hypothesise(cmp: Comparison, loc: Location,
     if unknown:
         raise InputError(f"unknown hypothesis {unknown[0]!r}; choose from "
                          f"{', '.join(HYPOTHESES)}")
+    if cmp.ctx.op_range is None:
+        # the characteristic's curvature is placed on OP's 0 … 100 %: unknown units
+        names = tuple(n for n in names if n != "valve_characteristic")
     return names
 
 
@@ -393,7 +400,7 @@ def validate(cmp: Comparison, fits: dict[str, Fit], *, alpha: float = ALPHA,
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
              min_improvement: float = MIN_IMPROVEMENT, hp_factor: float = 0.3,
              lp_factor: float = 5.0, hypotheses: tuple[str, ...] | None = None,
-             pem: bool = True) -> Diagnosis:
+             pem: bool = True, op_range: tuple[float, float] | None = None) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -417,6 +424,10 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     pem : bool
         Fit the hypotheses by their one-step prediction errors under the nominal's noise
         model (default); ``False`` fits output errors (see :func:`compare`).
+    op_range : (float, float), optional
+        OP's 0 and 100 % in its own units, for the valve characteristic; default: the
+        model's ``op_range``, else recognised from the data (per cent or a fraction,
+        :func:`.op_range.infer_op_range`), else that hypothesis is not tested.
 
     Returns
     -------
@@ -429,7 +440,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     Ind. Eng. Chem. Res. 44 (2005); Karra & Karim, Control Eng. Practice 17 (2009).
     """
     t0 = time.perf_counter()
-    cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor, pem=pem)
+    cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor, pem=pem,
+                  op_range=op_range)
     loc = locate(cmp)
     names = hypothesise(cmp, loc, hypotheses)
     fits, ham = fit(cmp, names, alpha=alpha)
@@ -459,8 +471,13 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
         {"pv_nrmse": cl["pv_nrmse"], "op_nrmse": cl["op_nrmse"]},
         "hammerstein": None if ham is None else ham.to_dict(),
         "setpoint_excitation": setpoint_excitation(cmp.rec),
+        "op_range": None if cmp.ctx.op_range is None else list(cmp.ctx.op_range),
         "seconds": None,
     }
+    if cmp.ctx.op_range is None:
+        details["not_tested"] = {"valve_characteristic": (
+            "OP is neither in per cent nor a fraction of the valve's travel (mean-removed, "
+            "milliamps or engineering units?): give --op-range LO HI")}
     if cmp.model.source == "identified":
         details["note"] = ("no --model given: a FOPDT nominal model was identified from "
                            "the recording (OP → PV) and used as the nominal model; the "
@@ -472,6 +489,12 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
                 "error): OP is the controller's answer to the unmeasured load, so the "
                 "identified process can be biased, and physics missed or wrongly named; "
                 "give --model for a reliable verdict (reports/diagnose/regulatory_bias.md)")
+    if base.nrmse_val >= 1.0:
+        details["model_warning"] = (
+            f"the nominal model does not explain PV on the validation blocks (NRMSE "
+            f"{base.nrmse_val:.2f}: no better than PV's mean), so a verdict against it "
+            "says little" + (": the process identified from OP → PV is not the loop's"
+                             if cmp.model.source == "identified" else ""))
     if cl is not None:
         details["_cl_arrays"] = cl
     return Diagnosis(
@@ -494,6 +517,7 @@ def closed_loop_replay(rec: Recording, m: NominalModel) -> dict[str, Any] | None
     no disturbance); return NRMSE of PV and OP against the recording."""
     if rec.SP is None or m.kc is None or m.ti is None:
         return None
+    lo, hi = m.op_range or infer_op_range(rec.OP) or (-np.inf, np.inf)
     n = len(rec)
     Ts = rec.Ts
     a = math.exp(-Ts / m.time_constant)
@@ -508,7 +532,7 @@ def closed_loop_replay(rec: Recording, m: NominalModel) -> dict[str, Any] | None
         pv[k] = y
         e = rec.SP[k] - y
         if k > 0:
-            u = min(max(u + m.kc * ((e - e_prev) + Ts / m.ti * e), 0.0), 100.0)
+            u = min(max(u + m.kc * ((e - e_prev) + Ts / m.ti * e), lo), hi)
         e_prev = e
         op[k] = u
         hist[k + d] = u

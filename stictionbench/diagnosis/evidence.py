@@ -31,7 +31,8 @@ into its own, more flexible, noise model (Ljung, *System Identification*, 1999, 
   against the nominal model on the validation blocks (the ``J`` interval comes from the
   training blocks);
 - **residual analysis** of the named model: Ljung–Box whiteness of its innovations and
-  their independence from the (pre-whitened) OP.
+  their independence from past OP (pre-whitened by its own AR model; lag 0 left out,
+  since in closed loop OP reacts to the current PV).
 """
 
 from __future__ import annotations
@@ -154,7 +155,7 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
         rows.append({"physics": name, "raw_score": var[name]["bic"],
                      "p_value": lr["p_value"], "lr_statistic": lr["statistic"],
                      "df": lr["df"], "p_one_step": lr["p_one_step"],
-                     "p_k_step": lr["p_k_step"],
+                     "p_k_step": lr["p_k_step"], "p_gate": ft.gate_p,
                      "improvement": improvement, "nrmse_validation": ft.nrmse_val,
                      "innovation_variance": var[name]["validation"],
                      "parameters": ft.params, "at_bound": ft.at_bound,
@@ -209,8 +210,8 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
 
 def _ranking(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     best = min(r["raw_score"] for r in rows)
-    keys = ("physics", "improvement", "p_value", "p_one_step", "p_k_step", "lr_statistic",
-            "df", "nrmse_validation",
+    keys = ("physics", "improvement", "p_value", "p_one_step", "p_k_step", "p_gate",
+            "lr_statistic", "df", "nrmse_validation",
             "innovation_variance", "significant", "at_bound", "parameters")
     return sorted(({"score": r["raw_score"] - best, **{k: r[k] for k in keys}} for r in rows),
                   key=lambda r: r["score"])
@@ -220,7 +221,7 @@ def _residual_tests(tests: dict[str, Any], rows: list[dict[str, Any]], pick: str
                     e: dict[str, np.ndarray], op: np.ndarray, Ts: float, f_hp: float,
                     noise: NoiseModel, val: np.ndarray) -> dict[str, Any]:
     row = next(r for r in rows if r["physics"] == pick)
-    u = noise.whiten(highpass(op, Ts, f_hp))
+    u = highpass(op, Ts, f_hp)  # pre-whitened by its own AR model in the test
     return {"vs_nominal": {"statistic": row["lr_statistic"], "p_value": row["p_value"],
                            "df": row["df"]},
             **tests,

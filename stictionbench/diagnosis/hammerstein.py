@@ -434,7 +434,7 @@ def _result(rec: Recording, crit: _Criterion, p: tuple, v_valve: float, v_lin: f
     else:
         S_int, J_int, stat_j = [0.0, 0.0], [0.0, 0.0], 0.0
     e = crit.noise.whiten(crit.y - sim)[crit.train]
-    u = crit.noise.whiten(lfilter(*crit.hp, crit.op - crit.op[0]))[crit.train]
+    u = lfilter(*crit.hp, crit.op - crit.op[0])[crit.train]  # pre-whitened in the test
     nr_l, nr_v = _validation_nrmse(crit, sim_l), _validation_nrmse(crit, sim)
     tests = {
         "valve_vs_linear": lr_test(v_lin, v_valve, n, 3),

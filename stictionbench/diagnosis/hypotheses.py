@@ -72,6 +72,9 @@ class Context:
     #: ``tau`` and ``theta`` come from a model the user gave (``False``: identified from
     #: the recording, possibly biased by regulatory data)
     model_given: bool = True
+    #: OP's 0 and 100 % in its own units (:mod:`.op_range`; ``None``: unknown, so the
+    #: valve characteristic is not tested)
+    op_range: tuple[float, float] | None = (0.0, 100.0)
 
     @property
     def op_span(self) -> float:
@@ -261,7 +264,7 @@ class ValveCharacteristic(Hypothesis):
         return [(1.05, 2000.0)]
 
     def valve_output(self, ctx, p):
-        return equal_percentage(ctx.op, float(p[0]))
+        return equal_percentage(ctx.op, float(p[0]), ctx.op_range or (0.0, 100.0))
 
 
 class Saturation(Hypothesis):

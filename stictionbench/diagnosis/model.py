@@ -6,6 +6,7 @@ YAML contract (``stictionbench diagnose --model MODEL.yaml``)::
     process: {gain: 2.0, time_constant: 11.5, dead_time: 3.0}   # PV units per % OP; s
     controller: {kc: 0.29, ti: 11.5}                              # u = kc*(e + (1/ti)∫e dt)
     sample_time: 1.0
+    op_range: [0, 100]    # optional: OP's 0 and 100 % (recognised from the data if absent)
 """
 
 from __future__ import annotations
@@ -37,6 +38,9 @@ class NominalModel:
     ti: float | None = None
     sample_time: float | None = None
     source: str = "given"
+    #: OP's 0 and 100 % in its own units (``op_range: [lo, hi]`` in the YAML); ``None``:
+    #: recognised from the recording (:func:`.op_range.infer_op_range`)
+    op_range: tuple[float, float] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -102,10 +106,19 @@ def load_model(path: str | Path) -> NominalModel:
     Ts = None
     if "sample_time" in doc:
         Ts = _num(str(p), "sample_time", doc["sample_time"], positive=True)
-    unknown = set(doc) - {"process", "controller", "sample_time"}
+    op_range = None
+    if "op_range" in doc:
+        r = doc["op_range"]
+        if not isinstance(r, list | tuple) or len(r) != 2:
+            raise InputError(f"{p}: op_range: expected [lo, hi], got {r!r}")
+        lo, hi = (_num(str(p), "op_range", v) for v in r)
+        if hi <= lo:
+            raise InputError(f"{p}: op_range: hi must exceed lo, got {r!r}")
+        op_range = (lo, hi)
+    unknown = set(doc) - {"process", "controller", "sample_time", "op_range"}
     if unknown:
         raise InputError(f"{p}: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
-    return NominalModel(gain, tau, theta, kc, ti, Ts, "given")
+    return NominalModel(gain, tau, theta, kc, ti, Ts, "given", op_range)
 
 
 def identify_pi(rec: Recording) -> tuple[float, float] | None:

@@ -135,15 +135,27 @@ def ljung_box(e: np.ndarray, lags: int = 20) -> dict[str, float]:
 
 
 def input_independence(e: np.ndarray, u: np.ndarray, lags: int = 20) -> dict[str, float]:
-    """Ljung's test that innovations ``e`` are uncorrelated with the (pre-whitened) input
-    ``u`` at lags ``0 … lags−1``: ``N·Σ r̂²`` against χ²(``lags``)."""
+    """Ljung's test that innovations ``e`` are uncorrelated with past inputs ``u`` at
+    lags ``1 … lags`` (``u`` leading): ``N·Σ r̂²`` against χ²(``lags``).
+
+    ``u`` is pre-whitened by its own AR model (BIC order), so that the correlations at
+    different lags are independent under the null (with a coloured input they are not,
+    and the statistic is not χ²). Lag 0 is left out: in closed loop the OP recorded at
+    a sample has already reacted to that sample's PV, so it depends on the current
+    innovation even when the model is right (Ljung, *System Identification*, 1999,
+    §16.6). Past inputs do not, so a correlation there is a model error.
+    """
     e = np.asarray(e, float) - float(np.mean(e))
-    u = np.asarray(u, float) - float(np.mean(u))
+    u = np.asarray(u, float)
+    if u.size > 40 and np.ptp(u) > 0:
+        u = fit_noise_model(u - float(np.mean(u)), allow_integrated=False).whiten(
+            u - float(np.mean(u)))
+    u = u - float(np.mean(u))
     n = e.size
     den = math.sqrt(float(np.dot(e, e)) * float(np.dot(u, u)))
     if den <= 0 or n <= lags + 2:
         return {"statistic": 0.0, "p_value": 1.0, "lags": int(lags)}
-    r = np.array([float(np.dot(e[k:], u[: n - k])) for k in range(lags)]) / den
+    r = np.array([float(np.dot(e[k:], u[: n - k])) for k in range(1, lags + 1)]) / den
     stat = float(n * np.sum(r * r))
     return {"statistic": stat, "p_value": float(chi2.sf(stat, lags)), "lags": int(lags)}
 

@@ -153,9 +153,14 @@ def play(op, width):
     return mv
 
 
-def equal_percentage(op: np.ndarray, rangeability: float) -> np.ndarray:
-    """Installed equal-percentage characteristic ``100·R^(OP/100 − 1)`` (% of max flow)."""
-    return 100.0 * np.power(rangeability, np.clip(op, 0.0, 100.0) / 100.0 - 1.0)
+def equal_percentage(op: np.ndarray, rangeability: float,
+                     op_range: tuple[float, float] = (0.0, 100.0)) -> np.ndarray:
+    """Installed equal-percentage characteristic ``lo + (hi − lo)·R^(x − 1)`` with
+    ``x = (OP − lo)/(hi − lo)`` clipped to 0 … 1, in OP's units (``op_range = (lo, hi)``;
+    default per cent: ``100·R^(OP/100 − 1)``, % of max flow)."""
+    lo, hi = op_range
+    x = np.clip((op - lo) / (hi - lo), 0.0, 1.0)
+    return lo + (hi - lo) * np.power(rangeability, x - 1.0)
 
 
 @functools.lru_cache(maxsize=64)

@@ -10,10 +10,11 @@ import numpy as np
 from ..io import write_text
 from ..reports.figures import new_figure, save_png
 from .diagnose import Diagnosis
+from .evidence import ALPHA
 from .hypotheses import HYPOTHESES, Context
 
 PLAIN = {
-    "none": "the nominal model explains the recording; nothing is missing",
+    "none": "no physics in the vocabulary improves significantly on the nominal model",
     "stiction": "a sticky valve: it holds until the controller output has moved by S, "
                 "then jumps by J",
     "deadband": "a valve deadband/backlash: the valve follows the controller output only "
@@ -96,8 +97,44 @@ def estimated_mv(d: Diagnosis) -> np.ndarray:
     rec = d.rec
     assert rec is not None
     ctx = Context(rec.t, np.asarray(rec.OP, float), rec.PV, rec.Ts, d.model.time_constant,
-                  d.model.dead_time)
+                  d.model.dead_time,
+                  op_range=tuple(d.details.get("op_range") or (0.0, 100.0)))
     return HYPOTHESES[d.missing_physics].valve_output(ctx, d.fits[d.missing_physics].p)
+
+
+def _gate_lines(d: Diagnosis) -> list[str]:
+    """Why a valve hypothesis that beats the nominal model was not credited (model-free:
+    it must also beat the linear loop re-identified under the same criterion)."""
+    h = d.details.get("hammerstein") or {}
+    gated = [r["physics"] for r in d.ranking if r.get("p_gate") is not None]
+    if not gated or not h:
+        return []
+    if not h.get("process_consistent", True):
+        why = ("not credited: the process fitted with the valve contradicts the linear "
+               "loop's (opposite gain sign, or its τ on the search's lower bound, 0.2 "
+               "sample times)")
+    else:
+        why = (f"p = {h['tests']['valve_vs_linear']['p_value']:.2g} against the linear "
+               "loop re-identified under the same criterion")
+    return [f"- Valve hypotheses ({', '.join(gated)}): the p-value is the larger of the "
+            f"test against the nominal model and the valve's own identification test; "
+            f"{why}."]
+
+
+def _residual_lines(d: Diagnosis) -> list[str]:
+    """Ljung's residual analysis of the chosen model, in words."""
+    w, u = d.tests.get("whiteness"), d.tests.get("independence_from_op")
+    if not w or not u:
+        return []
+    left = [what for what, t in (("not white", w), ("correlated with past OP", u))
+            if t["p_value"] < ALPHA]
+    which = "nominal" if d.missing_physics == "none" else d.missing_physics
+    return [f"- Residual analysis of the {which} model (validation blocks): "
+            f"whiteness p = {w['p_value']:.2g}, independence from past OP p = "
+            f"{u['p_value']:.2g}" + (f"; its innovations are {' and '.join(left)}, so "
+                                     "something the vocabulary does not hold (or a noise "
+                                     "model too simple) is left unexplained"
+                                     if left else "") + "."]
 
 
 def summary_markdown(d: Diagnosis) -> str:
@@ -133,7 +170,11 @@ def summary_markdown(d: Diagnosis) -> str:
         f"- Nominal model ({m.source}): K = {m.gain:.3g}, τ = {m.time_constant:.3g} s, "
         f"θ = {m.dead_time:.3g} s" + (f", PI Kc = {m.kc:.3g}, Ti = {m.ti:.3g} s"
                                       if m.kc is not None else "") + ".",
-        *([f"- **Warning:** {d.details['warning']}."] if d.details.get("warning") else []),
+        *[f"- **Warning:** {d.details[k]}." for k in ("warning", "model_warning")
+          if d.details.get(k)],
+        *[f"- Not tested: {k} ({why})." for k, why in d.details.get("not_tested", {}).items()],
+        *_gate_lines(d),
+        *_residual_lines(d),
         "",
         "| physics | score (0 = best) | validation NRMSE | improvement | p-value | chosen |",
         "|---|---|---|---|---|---|",

@@ -81,15 +81,17 @@ def build_estimator(method: str | None, params: Sequence[str] | None,
 
 def cmd_estimate(args: argparse.Namespace) -> int:
     """Run ``estimate``: print a table, optionally write the result as JSON."""
-    from ..io import read_recording, write_text
+    from ..io import read_longest_stretch, write_text
     from ..validation import refuse_overwrite
 
     refuse_overwrite([args.json], [args.recording])
     est = build_estimator(args.method, args.param, args.overrides)
-    rec = read_recording(args.recording)
+    rec = read_longest_stretch(args.recording)
     res = est.estimate(rec, x=args.x, y=args.y)
     payload = res.to_dict()
     payload["recording"] = str(args.recording)
+    if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
+        payload["rows"] = list(rec.meta["rows"])
     payload["estimator"] = repr(est)
     if args.json:
         write_text(args.json, json.dumps(payload, indent=2) + "\n")

@@ -129,11 +129,12 @@ def write_report(entries, skipped, scores, out_dir, directory) -> None:
     cols = ["name", "group", "label", "verdict", "consensus", "confidence", "missing_physics",
             "op_pv_phase_deg", "ellipse_axis_ratio", "ellipse_residual", "apparent_stiction",
             "oscillation_period_s", "oscillation_regularity", "ngi", "nli", "fitted_S",
-            "fitted_J", "xcorr_delay_est_mv", "xcum_delay_est_mv", "reason"]
+            "fitted_J", "xcorr_delay_est_mv", "xcum_delay_est_mv", "reason", "notes"]
     df = pd.DataFrame(entries)
     for c in cols:
         if c not in df.columns:
             df[c] = None
+    df["notes"] = df["notes"].map(lambda n: "; ".join(n) if isinstance(n, list) else "")
     methods = sorted({m for e in entries for m in e.get("methods", {})})
     calls = pd.DataFrame([{"name": e["name"], **{m: e.get("methods", {}).get(m, {}).get(
         "verdict") for m in methods}} for e in entries])

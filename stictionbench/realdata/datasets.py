@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from ..io import check_input_file, read_recording
+from ..io import check_input_file, read_stretches
 from ..recording import REQUIRED, Recording
 
 #: ISDB sector field -> loop-name prefix used in the book (Jelali & Huang 2010)
@@ -554,14 +554,21 @@ def load_csv_dir(
                                         f"{', '.join(missing)})"))
                 continue
         try:
-            rec = read_recording(f, warn=warn)
+            parts = read_stretches(f, warn=warn)
         except InputError as exc:
             skipped.append((f.name, str(exc)))
             continue
-        name = f.stem
-        recs[name] = _with_meta(rec, {"name": name, "group": name,
-                                      **_label_meta(table, name)})
+        for name, rec in _stretch_names(f.stem, parts):
+            recs[name] = _with_meta(rec, {"name": name, "group": f.stem,
+                                          **_label_meta(table, f.stem)})
     return recs, skipped
+
+
+def _stretch_names(stem: str, parts: list[Recording]) -> list[tuple[str, Recording]]:
+    """A file cut by long gaps gives one window per usable stretch, named by its file
+    rows (``stem@first-last``); all of them belong to the file's loop."""
+    return [(stem if "rows" not in r.meta else f"{stem}@{r.meta['rows'][0]}-"
+             f"{r.meta['rows'][1]}", r) for r in parts]
 
 
 # --------------------------------------------------------------------------- any file
@@ -572,7 +579,8 @@ def read_any(path: str | os.PathLike[str], *, warn: bool = True) -> dict[str, Re
     warning), or — when their loops have OP but no PV — to
     :func:`load_oscillation_benchmark`, whose loops become Recordings with ``PV = OP``
     and ``meta["op_only"] = True``. Every other file goes to
-    :func:`stictionbench.io.read_recording` and is named by its stem.
+    :func:`stictionbench.io.read_stretches` and is named by its stem (``stem@first-last``
+    for each usable stretch of a file cut by long gaps).
 
     Raises
     ------
@@ -590,5 +598,5 @@ def read_any(path: str | os.PathLike[str], *, warn: bool = True) -> dict[str, Re
                     print(f"stictionbench: warning: skipped {lp.name}: {exc}", file=sys.stderr)
             return out
         return load_isdb_mat(p, errors="skip", warn=warn)
-    rec = read_recording(p, warn=warn)
-    return {p.stem: _with_meta(rec, {"name": p.stem})}
+    return {n: _with_meta(r, {"name": n, "group": p.stem})
+            for n, r in _stretch_names(p.stem, read_stretches(p, warn=warn))}

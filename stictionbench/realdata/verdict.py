@@ -209,9 +209,35 @@ def judge(rec: Recording, name: str, consensus=None, *,
                  reason=why)
     final = entry["verdict"]
     entry["confidence"] = (sum(x == final for x in votes) / len(votes)) if votes else 0.5
+    entry["notes"] = period_notes(entry.get("oscillation_period_s"))
     if diagnose == "all" or (diagnose == "flagged" and final == "stiction"):
         entry.update(diagnosis_fields(r))
     return entry
+
+
+#: a day, in seconds, and how close an oscillation period must be to it to be noted
+DAY_S = 86400.0
+DAY_TOLERANCE = 0.1
+
+
+def period_notes(period_s: float | None) -> list[str]:
+    """Notes on an oscillation period that points away from the valve: a period within
+    10 % of a day is the signature of a daily external cycle (ambient temperature, a
+    production schedule), which the published detectors, built on the shape and phase
+    of a cycle, cannot tell from a limit cycle. A note, not a verdict: no labelled loop
+    here has a daily cycle to set a rule on.
+
+    >>> period_notes(86400.0 * 1.03)[0][:40]
+    'oscillation period 24.7 h, about a day: '
+    >>> period_notes(600.0)
+    []
+    """
+    if period_s is None or not math.isfinite(period_s) or \
+            abs(period_s / DAY_S - 1.0) > DAY_TOLERANCE:
+        return []
+    return [f"oscillation period {period_s / 3600:.1f} h, about a day: a daily external "
+            "cycle (ambient temperature, a production schedule) is a likelier cause than "
+            "a valve limit cycle; the detectors cannot tell them apart"]
 
 
 def rule_dict(rule: StictionRule) -> dict[str, float]:

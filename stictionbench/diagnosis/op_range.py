@@ -1,0 +1,67 @@
+"""The controller output's range: the span the valve characteristic and the closed-loop
+replay need.
+
+OP is a percentage of the valve's travel on most plants, a fraction (0–1) on some, in
+milliamps or engineering units on others, and mean-removed in some published data sets
+(ISDB CHEM10–13). Only the equal-percentage characteristic ``R^(x − 1)`` and the
+replay's output limits depend on where OP's 0 and 100 % are; every other hypothesis is
+invariant to OP's units. The range comes from the user (``op_range: [lo, hi]`` in the
+model YAML) or is recognised from the data when that is unambiguous; otherwise it is
+unknown and the valve characteristic is not tested (the diagnosis says so).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: OP in per cent of the valve's travel; in a fraction of it
+PERCENT = (0.0, 100.0)
+FRACTION = (0.0, 1.0)
+#: an output may over- or under-shoot its range by this share of the span (many control
+#: systems allow −5 … 105 %)
+OVERSHOOT = 0.05
+#: the median of a recognised OP lies above this share of the span (a mean-removed OP
+#: has its median near 0)
+MIN_MEDIAN = 0.01
+
+
+def _within(op: np.ndarray, span: tuple[float, float]) -> bool:
+    lo, hi = span
+    margin = OVERSHOOT * (hi - lo)
+    return bool(op.min() >= lo - margin and op.max() <= hi + margin)
+
+
+def infer_op_range(op: np.ndarray) -> tuple[float, float] | None:
+    """Recognise OP's units from its values.
+
+    Per cent when every sample lies in −5 … 105 and some exceed 1.05 (so it is not a
+    fraction); a fraction when every sample lies in −0.05 … 1.05. In both cases the
+    median must exceed 1 % of the span: a mean-removed OP has its median near 0.
+    Anything else (milliamps, engineering units, mean-removed or normalised data) is
+    unknown: give the range (``--op-range``, or ``op_range`` in the model YAML).
+
+    Parameters
+    ----------
+    op : ndarray
+        The recorded controller output.
+
+    Returns
+    -------
+    tuple of float or None
+        ``(0, 100)``, ``(0, 1)`` or ``None``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> infer_op_range(np.array([20.0, 35.0, 60.0])), infer_op_range(np.array([0.2, 0.6]))
+    ((0.0, 100.0), (0.0, 1.0))
+    >>> infer_op_range(np.array([-1.2, 0.1, 1.3])) is None  # mean-removed
+    True
+    """
+    op = np.asarray(op, float)
+    med = float(np.median(op))
+    for span in (PERCENT, FRACTION):
+        if _within(op, span) and med > span[0] + MIN_MEDIAN * (span[1] - span[0]) and (
+                span is FRACTION or op.max() > FRACTION[1] + OVERSHOOT):
+            return span
+    return None
