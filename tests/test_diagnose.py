@@ -546,3 +546,15 @@ def test_a_model_worse_than_the_mean_is_flagged(data_dir):
     assert d.fit["nominal"] >= 1.0 and "no better than PV's mean" in d.details["model_warning"]
     assert d.details["op_range"] is None  # mean-removed OP: no valve characteristic
     assert "model_warning" not in diagnose(_rec(sensor__time_constant=0.0), NOM).details
+
+
+def test_verdict_does_not_depend_on_pv_units():
+    # PV in other engineering units (×1000, offset 500; SP with it, the model's gain and
+    # the PI's Kc rescaled): the same physics and parameters
+    rec = _rec(valve="deadband", valve__deadband=2.5)
+    d = diagnose(rec, NOM)
+    scaled = sb.Recording.from_arrays(rec.t, 1000.0 * rec.PV + 500.0, rec.OP,
+                                      SP=1000.0 * rec.SP + 500.0)
+    e = diagnose(scaled, replace(NOM, gain=3000.0, kc=0.0002))
+    assert e.missing_physics == d.missing_physics == "deadband"
+    assert e.parameters["deadband"] == pytest.approx(d.parameters["deadband"], rel=1e-3)
