@@ -42,7 +42,7 @@ bench: venv
 # real plant recordings (needs ../shared/data): batch verdicts, oscillation benchmark,
 # model-free diagnosis of the ISDB stiction loops and the checks of its explanation (loop speed
 # against identification; set-point excitation and controller rate; simulated; historian
-# compression)
+# compression), and the verdicts against the way a recording is written down (about 20 minutes)
 DATA ?= ../shared/data
 real: venv
 	$(BIN)/stictionbench compare $(DATA)/isdb $(DATA)/plant --out reports/real --consensus conf/consensus/default.yaml
@@ -56,6 +56,7 @@ real: venv
 	$(BIN)/python experiments/simulated_loops.py
 	$(BIN)/python experiments/compression.py --data $(DATA)
 	$(BIN)/python experiments/isdb_noise_model.py --data $(DATA)/isdb
+	$(BIN)/python experiments/invariance.py --data $(DATA)/isdb $(DATA)/plant
 
 # concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out,
 # with the nominal model, model-free, with output-error fits for comparison, and the

@@ -214,19 +214,56 @@ def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bo
             empty = s.isin(["", "nan", "NaN", "NA", "null", "None"])
             num = pd.to_numeric(s.where(~empty, None), errors="coerce")
             bad = num.isna() & ~empty
+            if name == "t" and bad.any():
+                stamps = _timestamps(s.where(~empty, None))
+                if np.isfinite(stamps).any():  # date-times: name the first that is not one
+                    bad = pd.Series(np.isnan(stamps) & ~empty.to_numpy())
+                    if not bad.any():
+                        cols[name] = stamps
+                        continue
             if bad.any():
                 i = int(np.argmax(bad.to_numpy()))
                 raise InputError(
-                    f"{source}: row {i + first_row}, column {name}: not a number "
+                    f"{source}: row {i + first_row}, column {name}: not a number"
+                    f"{' or ISO 8601 date-time' if name == 't' else ''} "
                     f"({s.iloc[i][:20]!r})"
                 )
             cols[name] = num.to_numpy(dtype=float)
+        elif name == "t" and (pd.api.types.is_datetime64_any_dtype(col)
+                              or isinstance(col.dtype, pd.DatetimeTZDtype)):
+            stamps = _timestamps(col)
+            if (np.isnan(stamps) & col.notna().to_numpy()).any():
+                raise InputError(f"{source}: column t: timestamps not readable")
+            cols[name] = stamps
         else:
             try:
                 cols[name] = pd.to_numeric(col, errors="raise").to_numpy(dtype=float)
             except (ValueError, TypeError):
                 raise InputError(f"{source}: column {name} is not numeric") from None
     return cols
+
+
+def _timestamps(col: pd.Series) -> np.ndarray:
+    """Seconds since the first timestamp of a column of ISO 8601 date-times (text or
+    datetime64); NaN where an entry is missing or not a date-time. Offsets such as
+    ``+01:00`` are honoured (every stamp is converted to UTC, so a change of
+    daylight-saving time in a record with offsets is no jump).
+
+    Examples
+    --------
+    >>> _timestamps(pd.Series(["2024-06-09 09:57:00", "2024-06-09T09:57:10", None]))
+    array([ 0., 10., nan])
+    >>> _timestamps(pd.Series(["2024-06-09 09:57:00", "soon"]))
+    array([ 0., nan])
+    """
+    try:
+        stamps = pd.to_datetime(col, errors="coerce", format="ISO8601", utc=True)
+    except (ValueError, TypeError):
+        return np.full(len(col), np.nan)
+    if stamps.isna().all():
+        return np.full(len(col), np.nan)
+    first = stamps[stamps.notna()].iloc[0]
+    return (stamps - first).dt.total_seconds().to_numpy(dtype=float)
 
 
 def write_recording(rec: Recording, path: str | os.PathLike[str]) -> Path:

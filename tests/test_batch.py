@@ -120,3 +120,23 @@ def test_a_file_cut_by_an_outage_gives_windows_of_one_loop(loops, tmp_path):
     for r in recs.values():
         assert r.meta["group"] == "outage" and r.meta["label"] == "stiction"
     assert len(recs["outage@2-1501"]) == 1500
+
+
+def _rewritten(rec, how):
+    """The same loop written down differently: t in minutes, or PV and SP reversed."""
+    if how == "minutes":
+        return sb.Recording.from_arrays(rec.t / 60.0, rec.PV, rec.OP, SP=rec.SP, MV=rec.MV)
+    return sb.Recording.from_arrays(rec.t, -rec.PV, rec.OP, SP=-rec.SP, MV=rec.MV)
+
+
+@pytest.mark.parametrize("how", ["minutes", "pv_negated"])
+def test_every_method_is_blind_to_how_the_loop_is_written_down(loops, how):
+    # the unit of time and the sign of the transmitter are bookkeeping, not physics
+    # (experiments/invariance.py checks the same on the ISDB loops)
+    from stictionbench.realdata.verdict import judge
+
+    for name, rec in loops.items():
+        a, b = judge(rec, name), judge(_rewritten(rec, how), name)
+        assert b["verdict"] == a["verdict"], name
+        assert ({m: v["verdict"] for m, v in b["methods"].items()}
+                == {m: v["verdict"] for m, v in a["methods"].items()}), name

@@ -415,16 +415,17 @@ def test_regulatory_data_without_a_model_is_flagged(stiction_rec, tmp_path, caps
 
 
 def test_comparison_band_keeps_the_harmonics_of_a_limit_cycle():
-    # a long stick-slip record without a model: the FOPDT identified through the sticking
-    # valve has τ inflated by the stick time, and a low-pass at 5/(2πτ) would cut the limit
-    # cycle itself (the verdict then flipped between stiction and an oscillatory
-    # disturbance with one sample more or less); the band keeps its third harmonic
+    # a long stick-slip record: a FOPDT identified through the sticking valve can have τ
+    # inflated by the stick time (209 s on this record with an earlier search), and a
+    # low-pass at 5/(2πτ) would cut the limit cycle itself (the verdict then flipped
+    # between stiction and an oscillatory disturbance with one sample more or less); the
+    # band keeps its third harmonic
     from stictionbench.diagnosis.hypotheses import HARMONICS_KEPT
     from stictionbench.diagnosis.locate import oscillation_frequency
     from stictionbench.diagnosis.openloop import highpass
 
     rec = sb.simulate("stiction", duration=20000.0, seed=1, sample_time=1.0)
-    cmp = compare(rec)
+    cmp = compare(rec, replace(NOM, time_constant=209.0, source="identified"))
     f_osc = oscillation_frequency(highpass(np.asarray(rec.PV), 1.0, cmp.prob.f_hp), 1.0)
     assert f_osc == pytest.approx(1 / 135, rel=0.1)
     assert 5.0 / (2 * math.pi * cmp.model.time_constant) < f_osc  # what the rule corrects
@@ -558,3 +559,51 @@ def test_verdict_does_not_depend_on_pv_units():
     e = diagnose(scaled, replace(NOM, gain=3000.0, kc=0.0002))
     assert e.missing_physics == d.missing_physics == "deadband"
     assert e.parameters["deadband"] == pytest.approx(d.parameters["deadband"], rel=1e-3)
+
+
+@pytest.mark.parametrize(("factor", "offset"), [(1e-3, 0.0), (1.8, 32.0)])
+def test_model_free_fit_does_not_depend_on_pv_units(stiction_rec, factor, offset):
+    # kg/h → t/h (×0.001) or °C → °F (×1.8 + 32) without a model: the searches stop on a
+    # relative tolerance, so the identified valve and process are the same. Found on a
+    # refinery window (2411FIC20102_1107_0006) whose verdict changed under ×1.8 + 32
+    # while Nelder–Mead stopped on an absolute tolerance in PV² units
+    d = diagnose(stiction_rec)
+    rec = sb.Recording.from_arrays(stiction_rec.t, factor * stiction_rec.PV + offset,
+                                   stiction_rec.OP, SP=factor * stiction_rec.SP + offset)
+    e = diagnose(rec)
+    assert e.missing_physics == d.missing_physics
+    hd, he = d.details["hammerstein"], e.details["hammerstein"]
+    assert (he["S"], he["J"]) == pytest.approx((hd["S"], hd["J"]), rel=1e-4)
+    for k in ("time_constant", "dead_time"):
+        assert he["process"][k] == pytest.approx(hd["process"][k], rel=1e-4, abs=1e-6)
+
+
+def _in_minutes(rec):
+    """The same recording with its time axis in minutes instead of seconds."""
+    return sb.Recording.from_arrays(rec.t / 60.0, rec.PV, rec.OP, SP=rec.SP)
+
+
+def test_verdict_does_not_depend_on_the_unit_of_time(stiction_rec):
+    # a historian export in minutes: the same physics and parameters, times divided by 60.
+    # Found on ISDB: with t in minutes the model-free diagnosis named other physics in 4 of
+    # 14 loops, because the searches over θ stepped and stopped in seconds
+    d = diagnose(stiction_rec)
+    e = diagnose(_in_minutes(stiction_rec))
+    assert e.missing_physics == d.missing_physics
+    hd, he = d.details["hammerstein"], e.details["hammerstein"]
+    # (rounding in Ts = 1/60 moves the optimiser's path by a hair: 1 % tolerance)
+    assert (he["S"], he["J"]) == pytest.approx((hd["S"], hd["J"]), rel=0.01)
+    for k in ("time_constant", "dead_time"):
+        assert he["process"][k] == pytest.approx(hd["process"][k] / 60.0, rel=0.01, abs=1e-6)
+    # the linear loop fitted through the sticking valve sits in a flat valley of its
+    # criterion (τ ≈ 8 × the true one): τ to a few per cent, θ to a sample
+    assert e.model.time_constant == pytest.approx(d.model.time_constant / 60.0, rel=0.05)
+    assert e.model.dead_time == pytest.approx(d.model.dead_time / 60.0, abs=1 / 60)
+    # with a model (its times in minutes too): the dead-time hypothesis's search
+    rec = _rec(process__dead_time=16.0)
+    d = diagnose(rec, NOM)
+    e = diagnose(_in_minutes(rec), replace(NOM, time_constant=10.0 / 60, dead_time=10.0 / 60,
+                                           ti=10.0 / 60, sample_time=1.0 / 60))
+    assert e.missing_physics == d.missing_physics == "dead_time"
+    assert e.parameters["dead_time"] == pytest.approx(d.parameters["dead_time"] / 60.0,
+                                                      rel=0.01)

@@ -180,3 +180,30 @@ def test_long_gaps_cut_the_record_into_usable_stretches(tmp_path, capsys):
     m = np.zeros(150, bool)
     m[60:70] = True
     assert stretches(m) == []
+
+
+def test_iso_8601_timestamps_in_t_read_as_seconds(tmp_path):
+    """Historian exports stamp samples with date-times; t becomes seconds since the first
+    (across midnight, with a UTC offset, and from a datetime64 Parquet column)."""
+    start = pd.Timestamp("2024-06-09 23:58:00")
+    stamps = [start + pd.Timedelta(seconds=5 * i) for i in range(200)]
+    rows = ["t,SP,PV,OP"] + [f"{s.isoformat()}+02:00,1,{np.sin(i / 7):.6f},{np.cos(i / 5):.6f}"
+                             for i, s in enumerate(stamps)]
+    p = tmp_path / "stamped.csv"
+    p.write_text("\n".join(rows) + "\n")
+    rec = read_recording(p)
+    np.testing.assert_allclose(rec.t, 5.0 * np.arange(200))
+    assert rec.Ts == pytest.approx(5.0)
+    frame = pd.DataFrame({"t": stamps, "SP": 1.0, "PV": rec.PV, "OP": rec.OP})
+    frame.to_parquet(tmp_path / "stamped.parquet")
+    np.testing.assert_allclose(read_recording(tmp_path / "stamped.parquet").t, rec.t)
+
+
+def test_a_bad_timestamp_names_its_row(tmp_path):
+    rows = ["t,SP,PV,OP"] + [f"2024-06-09T10:{i // 60:02d}:{i % 60:02d},1,{i % 7},{i % 5}"
+                             for i in range(200)]
+    rows[31] = "2024-06-09T10:00:30 or so,1,2,3"
+    p = tmp_path / "bad.csv"
+    p.write_text("\n".join(rows) + "\n")
+    with pytest.raises(InputError, match=r"row 32, column t: not a number or ISO 8601"):
+        read_recording(p)

@@ -60,6 +60,11 @@ class Problem:
         self.noise = noise
         self.yw = self.y if noise is None else noise.whiten(self.y)
 
+    @property
+    def scale(self) -> float:
+        """Mean square of the (whitened) training PV: the unit of the fit criterion."""
+        return float(np.mean(self.yw[self.train] ** 2)) or 1.0
+
     def with_ctx(self, ctx: Context) -> Problem:
         """The same data, filters, blocks and noise model for another context (other
         nominal dynamics of the same recording: the filtered PV is reused)."""
@@ -100,16 +105,18 @@ def n_effective(r: np.ndarray) -> float:
 
 
 def _to_free(h: Hypothesis, ctx: Context, p: np.ndarray) -> np.ndarray:
-    """Search coordinates of the continuous parameters (log scale but for dead time)."""
+    """Search coordinates of the continuous parameters: log scale, but a dead time in
+    sample times (so that the search, its steps and its tolerance do not depend on the
+    unit of the time axis)."""
     q = p[: len(h.params)]
-    return np.log(np.maximum(q, 1e-12)) if h.name != "dead_time" else q.copy()
+    return np.log(np.maximum(q, 1e-12)) if h.name != "dead_time" else q / ctx.Ts
 
 
 def _from_free(h: Hypothesis, ctx: Context, z: np.ndarray,
                fixed: np.ndarray | None = None) -> np.ndarray:
     """Inverse of :func:`_to_free`, clipped to the bounds; ``fixed`` supplies the
     discrete trailing entries of the parameter vector (e.g. a stop rule)."""
-    q = np.exp(z) if h.name != "dead_time" else z.copy()
+    q = np.exp(z) if h.name != "dead_time" else z * ctx.Ts
     for i, (lo, hi) in enumerate(h.bounds(ctx)):
         q[i] = min(max(q[i], lo), hi)
     if fixed is not None and fixed.size:
@@ -117,9 +124,12 @@ def _from_free(h: Hypothesis, ctx: Context, z: np.ndarray,
     return q
 
 
-def _local_search(h: Hypothesis, ctx: Context, p0: np.ndarray, cost) -> None:
+def _local_search(h: Hypothesis, ctx: Context, p0: np.ndarray, cost,
+                  scale: float = 1.0) -> None:
     """Refine ``h`` from ``p0``: Nelder–Mead in the search coordinates, a bounded Brent
-    search across a line's cost basin, the active limits of a saturation in OP units."""
+    search across a line's cost basin, the active limits of a saturation in OP units.
+    Nelder–Mead sees the cost divided by ``scale`` (PV's mean square), so that its
+    stopping tolerance is relative: the search does not depend on PV's units."""
     finite = np.isfinite(p0)
     if not finite.any():
         return
@@ -128,7 +138,7 @@ def _local_search(h: Hypothesis, ctx: Context, p0: np.ndarray, cost) -> None:
         def obj(z):
             p = p0.copy()
             p[finite] = z
-            return cost(p)
+            return cost(p) / scale
         minimize(obj, p0[finite], method="Nelder-Mead",
                  options={"xatol": 0.02, "fatol": 1e-12, "maxiter": 60})
         return
@@ -141,7 +151,7 @@ def _local_search(h: Hypothesis, ctx: Context, p0: np.ndarray, cost) -> None:
                         bounds=(z0[0] - 3 * w, z0[0] + 3 * w), method="bounded",
                         options={"xatol": 0.05 * w})
         return
-    minimize(lambda z: cost(_from_free(h, ctx, z, fixed)), z0, method="Nelder-Mead",
+    minimize(lambda z: cost(_from_free(h, ctx, z, fixed)) / scale, z0, method="Nelder-Mead",
              options={"xatol": 1e-3, "fatol": 1e-14, "maxiter": 120,
                       "initial_simplex": _simplex(h, z0, ctx)})
 
@@ -184,7 +194,7 @@ def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
         cost(np.asarray(p, float))
     if h.params and refine:
         for p0 in also or []:
-            _local_search(h, prob.ctx, np.asarray(p0, float), cost)
+            _local_search(h, prob.ctx, np.asarray(p0, float), cost, prob.scale)
         order = sorted(range(len(evals)), key=lambda i: evals[i][1])
         seeds = [evals[i][0] for i in order[:starts]]
         k = len(h.params)
@@ -197,7 +207,7 @@ def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
                     if not any(np.array_equal(best[0], q) for q in seeds):
                         seeds.append(best[0])
         for p0 in seeds:
-            _local_search(h, prob.ctx, p0, cost)
+            _local_search(h, prob.ctx, p0, cost, prob.scale)
     return _finish(prob, h, evals, cost)
 
 
@@ -208,7 +218,7 @@ def refit_from(prob: Problem, h: Hypothesis, p0: np.ndarray) -> Fit:
     p0 = np.asarray(p0, float)
     cost(p0)
     if h.params:
-        _local_search(h, prob.ctx, p0, cost)
+        _local_search(h, prob.ctx, p0, cost, prob.scale)
     return _finish(prob, h, evals, cost)
 
 
@@ -228,7 +238,7 @@ def fit_at(prob: Problem, h: Hypothesis, p: np.ndarray) -> Fit:
 def _simplex(h: Hypothesis, z0: np.ndarray, ctx: Context) -> np.ndarray:
     step = np.full(z0.size, 0.25)
     if h.name == "dead_time":
-        step[:] = ctx.Ts
+        step[:] = 1.0  # one sample time
     if h.name == "stiction":
         # J can be 0: move it in absolute terms through its log
         step[:] = (0.3, 0.6)
@@ -243,8 +253,8 @@ def _simplex(h: Hypothesis, z0: np.ndarray, ctx: Context) -> np.ndarray:
 def _local_grid(h: Hypothesis, p: np.ndarray, ctx: Context) -> list[np.ndarray]:
     out = []
     if h.name == "dead_time":
-        for d in np.linspace(-3 * ctx.Ts, 3 * ctx.Ts, 13):
-            out.append(_from_free(h, ctx, p + d))
+        for d in np.linspace(-3.0, 3.0, 13):  # sample times
+            out.append(_from_free(h, ctx, p / ctx.Ts + d))
     elif p.size == 1:
         for f in np.geomspace(0.5, 2.0, 15):
             out.append(_from_free(h, ctx, np.log(p * f)))

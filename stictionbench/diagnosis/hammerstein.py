@@ -177,25 +177,35 @@ def _bounds(crit: _Criterion, tau0: float, theta0: float):
     return (crit.Ts * 0.2, max(4 * tau0, T / 4)), (0.0, max(2 * theta0 + 5 * crit.Ts, T / 20))
 
 
+def _nelder_mead(crit: _Criterion, f, z0: np.ndarray, steps, maxiter: int
+                 ) -> tuple[float, np.ndarray]:
+    """Nelder–Mead of ``f`` from ``z0``, initial simplex ``z0 + steps[i]·eᵢ``; ``f`` is
+    divided by the mean square of the (whitened) training PV, so that the stopping
+    tolerance is relative and the search does not depend on PV's units. Returns ``(f at
+    the optimum, its z)``."""
+    scale = float(np.mean(crit.yw[crit.train] ** 2)) or 1.0
+    simplex = np.vstack([z0, z0 + np.diag(np.asarray(steps, float))])
+    res = minimize(lambda z: f(z) / scale, z0, method="Nelder-Mead",
+                   options={"xatol": 1e-3, "fatol": 1e-12, "maxiter": maxiter,
+                            "initial_simplex": simplex})
+    return float(res.fun) * scale, res.x
+
+
 def _linear(crit: _Criterion, tau0: float, theta0: float) -> tuple[float, float, float]:
-    """Linear loop under the current noise model: Nelder–Mead over ``(ln τ, θ)``."""
+    """Linear loop under the current noise model: Nelder–Mead over ``(ln τ, θ/Ts)``
+    (dimensionless coordinates: the search does not depend on the unit of time)."""
     if crit.fixed:
         return min((crit.cost(0.0, 0.0, 0, tau0, theta0 + d), tau0, theta0 + d)
                    for d in (0.0, -crit.Ts, crit.Ts) if theta0 + d >= 0)
     (tlo, thi), (dlo, dhi) = _bounds(crit, tau0, theta0)
 
-    def f(z):
-        return crit.cost(0.0, 0.0, 0, min(max(math.exp(z[0]), tlo), thi),
-                         min(max(z[1], dlo), dhi))
+    def unpack(z):
+        return min(max(math.exp(z[0]), tlo), thi), min(max(z[1] * crit.Ts, dlo), dhi)
 
-    res = minimize(f, [math.log(max(tau0, tlo)), theta0], method="Nelder-Mead",
-                   options={"xatol": 1e-3, "fatol": 1e-12, "maxiter": 150,
-                            "initial_simplex": [[math.log(max(tau0, tlo)), theta0],
-                                                [math.log(max(tau0, tlo)) + 0.3, theta0],
-                                                [math.log(max(tau0, tlo)), theta0 + crit.Ts]]})
-    tau = min(max(math.exp(res.x[0]), tlo), thi)
-    theta = min(max(res.x[1], dlo), dhi)
-    return float(res.fun), tau, theta
+    z0 = np.array([math.log(max(tau0, tlo)), theta0 / crit.Ts])
+    fun, z = _nelder_mead(crit, lambda z: crit.cost(0.0, 0.0, 0, *unpack(z)), z0,
+                          (0.3, 1.0), 150)
+    return fun, *unpack(z)
 
 
 def _batch(crit: _Criterion, valves: list[tuple[float, float, int]],
@@ -268,7 +278,7 @@ def _seeds(grid: list[tuple[float, tuple]], k: int = 4) -> list[tuple[float, tup
 
 
 def _refine(crit: _Criterion, p0: tuple, tau0: float, theta0: float) -> tuple[float, tuple]:
-    """Nelder–Mead over ``(ln S, J/S, ln τ, θ)`` at a fixed stop rule (over ``(ln S,
+    """Nelder–Mead over ``(ln S, J/S, ln τ, θ/Ts)`` at a fixed stop rule (over ``(ln S,
     J/S)`` when the process is held)."""
     rule = p0[2]
     if crit.fixed:
@@ -276,24 +286,21 @@ def _refine(crit: _Criterion, p0: tuple, tau0: float, theta0: float) -> tuple[fl
             S = min(max(math.exp(z[0]), 1e-3 * crit.span), 1.2 * crit.span)
             return (S, min(max(z[1], 0.0), 1.5) * S, rule, p0[3], p0[4])
         z0 = np.array([math.log(p0[0]), p0[1] / p0[0]])
-        res = minimize(lambda z: crit.cost(*unpack2(z)), z0, method="Nelder-Mead",
-                       options={"xatol": 1e-3, "fatol": 1e-12, "maxiter": 120,
-                                "initial_simplex": np.array([z0, z0 + [0.3, 0], z0 + [0, 0.25]])})
-        return float(res.fun), unpack2(res.x)
+        fun, z = _nelder_mead(crit, lambda z: crit.cost(*unpack2(z)), z0, (0.3, 0.25), 120)
+        return fun, unpack2(z)
     (tlo, thi), (dlo, dhi) = _bounds(crit, tau0, theta0)
     slo, shi = 1e-3 * crit.span, 1.2 * crit.span
 
     def unpack(z):
         S = min(max(math.exp(z[0]), slo), shi)
         return (S, min(max(z[1], 0.0), 1.5) * S, rule,
-                min(max(math.exp(z[2]), tlo), thi), min(max(z[3], dlo), dhi))
+                min(max(math.exp(z[2]), tlo), thi), min(max(z[3] * crit.Ts, dlo), dhi))
 
-    z0 = np.array([math.log(p0[0]), p0[1] / p0[0], math.log(p0[3]), p0[4]])
-    simplex = [z0] + [z0 + np.eye(4)[i] * s for i, s in enumerate((0.3, 0.25, 0.3, crit.Ts))]
-    res = minimize(lambda z: crit.cost(*unpack(z)), z0, method="Nelder-Mead",
-                   options={"xatol": 1e-3, "fatol": 1e-12, "maxiter": 250,
-                            "initial_simplex": np.array(simplex)})
-    return float(res.fun), unpack(res.x)
+    # θ in sample times: the search does not depend on the unit of time
+    z0 = np.array([math.log(p0[0]), p0[1] / p0[0], math.log(p0[3]), p0[4] / crit.Ts])
+    fun, z = _nelder_mead(crit, lambda z: crit.cost(*unpack(z)), z0, (0.3, 0.25, 0.3, 1.0),
+                          250)
+    return fun, unpack(z)
 
 
 #: relative steps of the profile walk away from an estimate

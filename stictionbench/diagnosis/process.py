@@ -49,12 +49,15 @@ def fit_fopdt(u: np.ndarray, pv: np.ndarray, Ts: float,
                 best = (c, tau, th)
     tau_max, theta_max = max(2 * Ts, T / 2), max(Ts, T / 4)
 
+    # search coordinates (ln τ, θ/Ts), and an initial simplex of 0.3 in ln τ and one
+    # sample in θ: dimensionless, so the fit does not depend on the unit of time
     def clip(z):
-        return (min(math.exp(min(z[0], 50.0)), tau_max), min(max(z[1], 0.0), theta_max))
+        return (min(math.exp(min(z[0], 50.0)), tau_max), min(max(z[1] * Ts, 0.0), theta_max))
 
-    res = minimize(lambda z: cost(*clip(z))[0],
-                   [math.log(best[1]), best[2]], method="Nelder-Mead",
-                   options={"xatol": 1e-3, "fatol": 1e-10, "maxiter": 200})
+    z0 = np.array([math.log(best[1]), best[2] / Ts])
+    res = minimize(lambda z: cost(*clip(z))[0], z0, method="Nelder-Mead",
+                   options={"xatol": 1e-3, "fatol": 1e-10, "maxiter": 200,
+                            "initial_simplex": np.array([z0, z0 + [0.3, 0], z0 + [0, 1]])})
     tau, theta = clip(res.x)
     if res.fun > best[0]:
         tau, theta = best[1], best[2]

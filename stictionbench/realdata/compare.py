@@ -21,7 +21,8 @@ Methods (each with its paper's rule and default thresholds; see the estimators):
   Jelali 2008; Karra & Karim 2009; :mod:`stictionbench.diagnosis.hammerstein`): a
   stick-slip valve with FOPDT process by the prediction-error method; stiction when the
   valve beats the linear loop and the interval of the slip jump J excludes 0;
-- ``delay_est_mv`` — the seed paper's CO→MV delay with MV from that fitted valve;
+- ``delay_est_mv`` — the seed paper's CO→MV delay with MV from that fitted valve (OP
+  itself when the valve does not beat the linear loop);
   both model-based methods call a valve *not* found inconclusive on data without any
   set-point excitation: there the process identified from OP → PV is biased
   (``experiments/regulatory_bias.py``);
@@ -184,11 +185,14 @@ def _hammerstein(rec: Recording, kind: str) -> Call:
 def _delay_estimated_mv(rec: Recording, kind: str) -> Call:
     """The paper's CO→MV delay (``xcorr``) with MV from the fitted Hammerstein valve
     (plants do not record MV); delay > 0.5 samples ⇒ stiction; no stiction only on data
-    with set-point excitation (:func:`_unexcited`)."""
+    with set-point excitation (:func:`_unexcited`). A valve that does not beat the linear
+    loop (:attr:`~stictionbench.diagnosis.hammerstein.HammersteinResult.sticky` false)
+    is not identified: the estimated MV is then OP itself, without lag (a first version
+    read the lag off such a valve and called stiction on a simulated ideal-valve loop)."""
     h = _hammerstein_fit(rec)
-    if h.S <= 0 or np.ptp(h.mv) <= 0:
-        return _unexcited(rec, 0.0) or Call("no_stiction", "the fitted valve moves with OP (no "
-                                                      "estimated lag)", 0.0)
+    if not h.sticky or h.S <= 0 or np.ptp(h.mv) <= 0:
+        return _unexcited(rec, 0.0) or Call("no_stiction", "no valve nonlinearity identified: "
+                                                      "the estimated MV is OP (no lag)", 0.0)
     est = Recording(t=rec.t, PV=rec.PV, OP=rec.OP, MV=np.asarray(h.mv, float), Ts=rec.Ts,
                     meta=rec.meta)
     c = _from_result(make("xcorr").estimate(est, x="OP", y="MV"))
@@ -197,7 +201,7 @@ def _delay_estimated_mv(rec: Recording, kind: str) -> Call:
     if c.verdict != "stiction" and (why := _unexcited(rec, c.value)) is not None:
         return why
     side = "lags" if c.verdict == "stiction" else "does not lag"
-    return Call(c.verdict, f"estimated MV {side} OP: delay {c.value:.3g} s", c.value)
+    return Call(c.verdict, f"estimated MV {side} OP: delay {c.value:.3g} samples", c.value)
 
 
 #: name -> function(recording, loop type) -> Call; in the order of the report
