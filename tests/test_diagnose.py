@@ -561,7 +561,7 @@ def test_verdict_does_not_depend_on_pv_units():
     assert e.parameters["deadband"] == pytest.approx(d.parameters["deadband"], rel=1e-3)
 
 
-@pytest.mark.parametrize(("factor", "offset"), [(1e-3, 0.0), (1.8, 32.0)])
+@pytest.mark.parametrize(("factor", "offset"), [(2.0 ** -20, 0.0), (1e-3, 0.0), (1.8, 32.0)])
 def test_model_free_fit_does_not_depend_on_pv_units(stiction_rec, factor, offset):
     # kg/h → t/h (×0.001) or °C → °F (×1.8 + 32) without a model: the searches stop on a
     # relative tolerance, so the identified valve and process are the same. Found on a
@@ -573,9 +573,22 @@ def test_model_free_fit_does_not_depend_on_pv_units(stiction_rec, factor, offset
     e = diagnose(rec)
     assert e.missing_physics == d.missing_physics
     hd, he = d.details["hammerstein"], e.details["hammerstein"]
-    assert (he["S"], he["J"]) == pytest.approx((hd["S"], hd["J"]), rel=1e-4)
-    for k in ("time_constant", "dead_time"):
-        assert he["process"][k] == pytest.approx(hd["process"][k], rel=1e-4, abs=1e-6)
+    fitted = ("S", "J", "time_constant", "dead_time")
+    got = [he[k] if k in "SJ" else he["process"][k] for k in fitted]
+    ref = [hd[k] if k in "SJ" else hd["process"][k] for k in fitted]
+    if factor == 2.0 ** -20:
+        # a power of two scales every cost exactly: a search whose criterion is relative
+        # to PV's mean square sees the very same numbers (an absolute one does not)
+        assert got == ref
+        return
+    # other factors change the last bits of every cost, so the simplex may stop elsewhere
+    # inside its tolerance (xatol 1e-3 in ln S, J/S, ln τ, θ/Ts; machine-dependent): the
+    # same estimate to a small fraction of its own 95 % interval
+    for k in ("S", "J"):
+        width = hd[f"{k}_interval"][1] - hd[f"{k}_interval"][0]
+        assert abs(he[k] - hd[k]) <= 0.05 * width, (k, he[k], hd[k], width)
+    assert got[2] == pytest.approx(ref[2], rel=1e-2)
+    assert abs(got[3] - ref[3]) <= 0.1 * stiction_rec.Ts
 
 
 def _in_minutes(rec):
