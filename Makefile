@@ -54,6 +54,7 @@ real: venv
 	$(BIN)/python experiments/regulatory_bias.py
 	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
 	$(BIN)/python experiments/simulated_loops.py
+	$(BIN)/python experiments/flow_loops.py
 	$(BIN)/python experiments/compression.py --data $(DATA)
 	$(BIN)/python experiments/isdb_noise_model.py --data $(DATA)/isdb
 	$(BIN)/python experiments/invariance.py --data $(DATA)/isdb $(DATA)/plant

@@ -108,7 +108,9 @@ def main(argv: list[str] | None = None) -> int:
               "oscillation in regulatory operation: when the set point moves about as often "
               "as the loop oscillates they answer inconclusive (`stictionbench.estimators."
               "detector.forced_by_setpoint`). Kano and Yamashita need MV (or a flow loop) "
-              "and are inconclusive here by design.", ""]
+              "and Hägglund a flow loop: they are inconclusive here by design (these loops' "
+              "process is the paper's 10 s lag; flow loops are in "
+              "[flow_loops.md](flow_loops.md)).", ""]
     out = Path(a.out)
     write_text(out / "simulated.md", "\n".join(lines))
     write_text(out / "simulated.csv", pd.concat(tables).to_csv(

@@ -1,5 +1,5 @@
-"""Published stiction detectors (horch, he, area_ratio, kano, yamashita) on loops with
-known answers: simulated stiction / disturbance / linear loops and hand-made waves."""
+"""Published stiction detectors (horch, he, area_ratio, kano, yamashita, hagglund) on loops
+with known answers: simulated stiction / disturbance / linear loops and hand-made waves."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from stictionbench.errors import InputError
 from stictionbench.estimators import available, make
 from stictionbench.estimators.area_ratio import area_ratios
 from stictionbench.estimators.detector import half_cycles, setpoint_changes, three_way
+from stictionbench.estimators.hagglund import shape_indices
 from stictionbench.estimators.he import fit_sinusoid, fit_triangle
 from stictionbench.estimators.horch import cross_correlation, zero_lag_phase
 from stictionbench.estimators.kano import sticky_sections
@@ -196,6 +197,49 @@ def test_setpoint_changes_leave_half_cycles_out():
     assert n2 == n1 - 1
 
 
+# --------------------------------------------------------------------------- hägglund
+def test_hagglund_index_of_shapes():
+    n = np.arange(2000)
+    assert np.all(shape_indices(np.sin(2 * np.pi * n / 80 + 0.2), 80.0) < -0.99)
+    assert np.all(shape_indices(sps.square(2 * np.pi * (n + 0.5) / 100), 100.0) > 0.9)
+    # a triangle is closer to the sine half wave than to the square
+    tri = sps.sawtooth(2 * np.pi * (n + 0.5) / 100, 0.5)
+    assert np.all(shape_indices(tri, 100.0) < -0.5)
+
+
+def test_hagglund_hand_made_waves():
+    res = make("hagglund", flow_loop=True).estimate(_stiction_waves())
+    assert res.decision is True and res.value > 0.5
+    res = make("hagglund", flow_loop=True).estimate(_sine_waves())
+    assert res.decision is False and res.value < -0.9
+    # outside a flow loop a sticky valve need not give a square error: no verdict
+    res = make("hagglund").estimate(_stiction_waves())
+    assert res.decision is None and res.diagnostics["reason"] == "not a flow loop"
+    assert res.value > 0.5
+
+
+def _flow_loop(valve: str, seed: int = 0, **kw: str) -> Recording:
+    """A flow loop (τ = 1 s, θ = 1 s) with a plant-like PI (kc 0.3, Ti 10 s) executing
+    every 0.2 s, noisy sensor, 1 s historian, constant set point."""
+    ov = ["process.gain=1.0", "process.time_constant=1.0", "process.dead_time=1.0",
+          "controller.kc=0.3", "controller.ti=10.0", "controller.sample_time=0.2",
+          "sensor=noisy", "sensor.time_constant=0.0", "sensor.noise_std=0.1",
+          "setpoint=constant", f"valve={valve}"] + [f"{k}={v}" for k, v in kw.items()]
+    r = simulate("linear", duration=3000.0, seed=seed, sample_time=1.0, overrides=ov)
+    return Recording.from_arrays(r.t, r.PV, r.OP, SP=r.SP, warn=False)
+
+
+def test_hagglund_simulated_flow_loops():
+    sticky = _flow_loop("kano", **{"valve.S": "5.0", "valve.J": "2.5", "disturbance": "load",
+                                   "disturbance.load_std": "0.5"})
+    res = make("hagglund", flow_loop=True).estimate(sticky)
+    assert res.decision is True, res.diagnostics
+    # a healthy valve under a sinusoidal load: the error is a sine wave
+    sine = _flow_loop("linear", **{"disturbance": "sinusoidal"})
+    res = make("hagglund", flow_loop=True).estimate(sine)
+    assert res.decision is False and res.value < -0.5, res.diagnostics
+
+
 # --------------------------------------------------------------------------- kano
 def test_sticky_sections_find_the_stuck_stretches():
     op = 50 - 10 * sps.sawtooth(_phase(400), 0.5)
@@ -255,6 +299,7 @@ def test_yamashita_pattern_times_add_up():
     ("he", "low", 1.5), ("he", "min_half_cycles", 0), ("area_ratio", "margin", -0.1),
     ("area_ratio", "use_error", 1), ("kano", "mv_tolerance", 0), ("kano", "threshold", 2),
     ("yamashita", "flow_loop", "yes"), ("yamashita", "tolerance", -1.0),
+    ("hagglund", "threshold", 2.0), ("hagglund", "flow_loop", 1),
 ])
 def test_bad_parameters_raise(name, key, bad):
     with pytest.raises(InputError, match=f"parameter {key} must be"):
@@ -268,7 +313,7 @@ def test_inverted_band_raises():
         make("horch", even_threshold=3.0).estimate(_sine_waves())
 
 
-@pytest.mark.parametrize("name", ["horch", "he", "area_ratio", "kano", "yamashita"])
+@pytest.mark.parametrize("name", ["horch", "he", "area_ratio", "kano", "yamashita", "hagglund"])
 def test_registered_and_declared(name):
     assert name in available()
     est = make(name)
@@ -283,7 +328,7 @@ def test_servo_loop_is_outside_the_shape_detectors_premise():
               disturbance__load_std=0.5)
     servo = simulate("linear", **kw)
     servo = Recording.from_arrays(servo.t, servo.PV, servo.OP, SP=servo.SP)
-    for name in ("horch", "he", "area_ratio"):
+    for name in ("horch", "he", "area_ratio", "hagglund"):
         d = make(name).estimate(servo, x="OP", y="PV").diagnostics
         assert (d["verdict"], d["reason"]) == ("inconclusive",
                                                "set point moves as often as the loop "
@@ -291,5 +336,5 @@ def test_servo_loop_is_outside_the_shape_detectors_premise():
     # without the set point the gate cannot know: the premise is the caller's
     blind = Recording.from_arrays(servo.t, servo.PV, servo.OP)
     reasons = {make(n).estimate(blind, x="OP", y="PV").diagnostics["reason"]
-               for n in ("horch", "he", "area_ratio")}
+               for n in ("horch", "he", "area_ratio", "hagglund")}
     assert "set point moves as often as the loop oscillates" not in reasons

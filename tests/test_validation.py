@@ -23,7 +23,7 @@ from stictionbench.validation import (
 )
 
 BUILTIN = ("xcorr", "xcum", "bicoherence", "oscillation", "ellipse", "horch", "he", "area_ratio",
-           "kano", "yamashita")
+           "kano", "yamashita", "hagglund")
 
 
 @pytest.fixture(scope="module")

@@ -17,14 +17,7 @@ import numpy as np
 from ..recording import Recording
 from ..validation import Constraint, Interval, TypeOf
 from .base import EstimateResult
-from .detector import (
-    StictionDetector,
-    half_cycles,
-    harmonic_filter,
-    loop_signals,
-    self_oscillation,
-    setpoint_changes,
-)
+from .detector import StictionDetector, half_cycles
 
 
 def area_ratios(e: np.ndarray, period: float, exclude: np.ndarray | None = None
@@ -114,12 +107,9 @@ class AreaRatio(StictionDetector):
 
     def _estimate(self, x: np.ndarray, y: np.ndarray | None, rec: Recording
                   ) -> EstimateResult:
-        _, e = loop_signals(self.name, x, y, rec, self.use_error)
-        osc, why = self_oscillation(e, rec)
+        osc, ratios, why = self._error_half_cycles(x, y, rec, area_ratios)
         if why:
             return self._no_oscillation(osc, why, margin=self.margin)
-        ratios = area_ratios(harmonic_filter(e, osc.period_samples), osc.period_samples,
-                             exclude=setpoint_changes(rec))
         r = float(np.mean(ratios)) if ratios.size else float("nan")
         if ratios.size < self.min_half_cycles:
             decision, reason = None, "too short"

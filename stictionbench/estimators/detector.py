@@ -1,8 +1,8 @@
 """What the published stiction detectors share: a three-way verdict, the control error,
 the oscillation gate and the half cycles of an oscillating signal.
 
-Each detector (``horch``, ``he``, ``area_ratio``, ``kano``, ``yamashita``) subclasses
-:class:`StictionDetector` and returns an :class:`~.base.EstimateResult` whose
+Each detector (``horch``, ``he``, ``area_ratio``, ``kano``, ``yamashita``, ``hagglund``)
+subclasses :class:`StictionDetector` and returns an :class:`~.base.EstimateResult` whose
 ``decision`` is True (stiction), False (no stiction) or None (inconclusive), with the
 ``verdict`` (``"stiction"``, ``"no_stiction"``, ``"inconclusive"``) and a short
 ``reason`` in its diagnostics.
@@ -11,6 +11,7 @@ Each detector (``horch``, ``he``, ``area_ratio``, ``kano``, ``yamashita``) subcl
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
@@ -253,6 +254,22 @@ class StictionDetector(Estimator):
         diag = {"verdict": verdict(decision), "reason": reason, **diagnostics}
         return EstimateResult(method=self.name, value=float(value), units=units,
                               decision=decision, meaning=MEANING, diagnostics=diag)
+
+    def _error_half_cycles(self, x: np.ndarray, y: np.ndarray | None, rec: Recording,
+                           measure: Callable[..., np.ndarray]
+                           ) -> tuple[AcfOscillation, np.ndarray, str | None]:
+        """The control error's oscillation and ``measure(e, period, exclude=...)`` of its
+        half cycles: the error (:func:`loop_signals`, the detector's ``use_error``)
+        filtered around the oscillation (:func:`harmonic_filter`), the half cycles
+        holding a set-point change left out. When the premise fails
+        (:func:`self_oscillation`) the values are empty and the reason is returned."""
+        _, e = loop_signals(self.name, x, y, rec, getattr(self, "use_error", True))
+        osc, why = self_oscillation(e, rec)
+        if why:
+            return osc, np.empty(0), why
+        values = measure(harmonic_filter(e, osc.period_samples), osc.period_samples,
+                         exclude=setpoint_changes(rec))
+        return osc, values, None
 
     def _no_oscillation(self, osc: AcfOscillation, reason: str = "no oscillation",
                         **diagnostics: Any) -> EstimateResult:

@@ -32,6 +32,7 @@ BUILTIN = {
     "area_ratio": "stictionbench.estimators.area_ratio:AreaRatio",
     "kano": "stictionbench.estimators.kano:Kano",
     "yamashita": "stictionbench.estimators.yamashita:Yamashita",
+    "hagglund": "stictionbench.estimators.hagglund:Hagglund",
 }
 
 

@@ -14,6 +14,9 @@ Methods (each with its paper's rule and default thresholds; see the estimators):
 - ``kano`` — Kano et al. (2004) method A on the OP–MV plot (PV stands for MV in flow
   loops; otherwise inconclusive: MV not recorded);
 - ``yamashita`` — Yamashita (2006) qualitative shapes (same MV rule);
+- ``hagglund`` — Hägglund (2011) shape analysis: each half period of the control error
+  compared with a square and a sine wave (square ⇒ stiction); flow loops only, elsewhere
+  inconclusive (a sticky valve behind a slow process gives no square error);
 - ``choudhury`` — Choudhury, Shah & Thornhill (2004, 2006): bicoherence NGI/NLI on the
   control error, then the PV–OP ellipse fit: nonlinear and an ellipse ⇒ stiction;
   Gaussian or linear ⇒ no stiction (not a valve nonlinearity);
@@ -211,17 +214,18 @@ METHODS: dict[str, Callable[[Recording, str], Call]] = {
     "area_ratio": _detector("area_ratio"),
     "kano": _detector("kano", mv_rule=True),
     "yamashita": _detector("yamashita", lambda k: {"flow_loop": k == "F"}, mv_rule=True),
+    "hagglund": _detector("hagglund", lambda k: {"flow_loop": k == "F"}),
     "choudhury": _choudhury,
     "hammerstein": _hammerstein,
     "delay_est_mv": _delay_estimated_mv,
     "ellipse_v1": _ellipse_v1,
 }
 #: methods whose thresholds were not set on the shared real loops
-PUBLISHED = ("horch", "he", "area_ratio", "kano", "yamashita", "choudhury", "hammerstein",
-             "delay_est_mv")
+PUBLISHED = ("horch", "he", "area_ratio", "kano", "yamashita", "hagglund", "choudhury",
+             "hammerstein", "delay_est_mv")
 #: methods that fit a model (about a second per window): compared, and in the consensus
 #: only when batch can afford them (see :data:`FAST`)
-FAST = ("horch", "he", "area_ratio", "kano", "yamashita", "choudhury")
+FAST = ("horch", "he", "area_ratio", "kano", "yamashita", "hagglund", "choudhury")
 
 
 def window_calls(rec: Recording, name: str,
