@@ -21,9 +21,11 @@ source that no threshold was set on, randomised over what plants vary:
   process gain, integral time 0.5–2 s), oscillating on its own.
 
 Every loop is given only ``t, SP, PV, OP`` (MV withheld) and the loop type ``F``. Per
-method: the detection rate at each stick band, the false-alarm rate by healthy cause, and
-the inconclusive rates, with Wilson 95 % intervals; a figure of detection against ``S``.
-Nothing is tuned here: each detector runs with its paper's defaults.
+method, and for the shipped consensus of ``batch`` (``conf/consensus/default.yaml``,
+trained on the shared real loops, so out of sample here): the detection rate at each
+stick band, the false-alarm rate by healthy cause, and the inconclusive rates, with
+Wilson 95 % intervals; a figure of detection against ``S``. Nothing is tuned here: each
+detector runs with its paper's defaults.
 
 Run: ``.venv/bin/python experiments/flow_loops.py [--per-cell 12] [--jobs 2]``; writes
 ``reports/real/flow_loops.md``, ``.csv`` and ``.png``.
@@ -44,7 +46,8 @@ sys.path.insert(0, str(ROOT))
 import stictionbench as sb  # noqa: E402
 from stictionbench.io import write_text  # noqa: E402
 from stictionbench.rates import rate_text, wilson  # noqa: E402
-from stictionbench.realdata.compare import FAST, METHODS  # noqa: E402
+from stictionbench.realdata.compare import METHODS, PUBLISHED  # noqa: E402
+from stictionbench.realdata.consensus import Consensus, fit, score  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
@@ -52,8 +55,10 @@ from stictionbench.reports.tables import to_markdown  # noqa: E402
 BANDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
 STICKY = ("kano", "he", "choudhury")
 HEALTHY = ("load", "sinusoid", "deadband", "tight")
-#: the detectors that answer without a fitted model (the batch's fast set)
-DETECTORS = tuple(m for m in FAST)
+#: every published method (the two that fit a Hammerstein model share one fit per loop)
+DETECTORS = PUBLISHED
+#: the methods and the shipped consensus of ``batch``, in the order of the tables
+COLUMNS = (*DETECTORS, "consensus")
 DURATION = 3000.0
 SEED0 = 20000
 
@@ -104,8 +109,9 @@ def draw(kind: str, i: int) -> tuple[list[str], dict]:
     return ov, p
 
 
-def one_loop(kind: str, i: int) -> dict:
-    """Every fast detector's call on flow loop ``i`` of ``kind``."""
+def one_loop(kind: str, i: int, consensus: Consensus) -> dict:
+    """Every published method's call on flow loop ``i`` of ``kind``, and the
+    ``consensus`` of their calls."""
     ov, p = draw(kind, i)
     r = sb.simulate("linear", duration=DURATION, seed=SEED0 + i, sample_time=1.0,
                     overrides=ov)
@@ -119,6 +125,7 @@ def one_loop(kind: str, i: int) -> dict:
             out[m], out[m + "_reason"] = c.verdict, c.reason
         except Exception as exc:  # noqa: BLE001 - a method failing is a result to count
             out[m], out[m + "_reason"] = "inconclusive", " ".join(str(exc).split())[:60]
+    out["consensus"], out["consensus_reason"] = consensus.decide(out)
     return out
 
 
@@ -132,14 +139,14 @@ def summarise(df: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
     det = []
     for S, sub in st.groupby("S", sort=True):
         row = {"S %": S, "loops": len(sub)}
-        for m in DETECTORS:
+        for m in COLUMNS:
             row[m] = _rate(sub[m], "stiction")
         det.append(row)
     fa = []
     for kind in HEALTHY:
         sub = df[df["kind"] == kind]
         row = {"healthy loop": kind, "loops": len(sub)}
-        for m in DETECTORS:
+        for m in COLUMNS:
             row[m] = _rate(sub[m], "stiction")
         fa.append(row)
     return pd.DataFrame(det), pd.DataFrame(fa)
@@ -151,7 +158,7 @@ def overall(df: pd.DataFrame) -> pd.DataFrame:
     inconclusive answer as wrong."""
     rows = []
     st, ns = df[df["label"] == "stiction"], df[df["label"] == "no_stiction"]
-    for m in DETECTORS:
+    for m in COLUMNS:
         d = int((st[m] == "stiction").sum())
         f = int((ns[m] == "stiction").sum())
         tn = int((ns[m] == "no_stiction").sum())
@@ -170,7 +177,7 @@ def figure(df: pd.DataFrame, path: Path) -> None:
     with Wilson 95 % intervals."""
     fig, (ax, bx) = new_figure(1, 2, figsize=(11.0, 4.2))
     st = df[df["label"] == "stiction"]
-    for j, m in enumerate(DETECTORS):
+    for j, m in enumerate(COLUMNS):
         g = st.groupby("S", sort=True)[m]
         k = g.apply(lambda v: int((v == "stiction").sum()))
         n = g.size()
@@ -185,8 +192,8 @@ def figure(df: pd.DataFrame, path: Path) -> None:
             rates.append(f)
             err[0].append(f - lo)
             err[1].append(hi - f)
-        x = np.arange(len(HEALTHY)) + (j - len(DETECTORS) / 2) * 0.11
-        bx.bar(x, rates, width=0.11, yerr=err, capsize=1.5, color=line[0].get_color())
+        x = np.arange(len(HEALTHY)) + (j - len(COLUMNS) / 2) * 0.08
+        bx.bar(x, rates, width=0.08, yerr=err, capsize=1.5, color=line[0].get_color())
     ax.set_xscale("log")
     ax.set_xlabel("stick band S, % of span (Kano, He, Choudhury valves)")
     ax.set_ylabel("sticky valves: stiction named")
@@ -210,7 +217,7 @@ def false_alarms_by(df: pd.DataFrame, column: str, edges: list[float]) -> pd.Dat
     h = df[df["kind"].isin(IDEAL_VALVE)]
     bins = pd.cut(h[column], edges, include_lowest=True)
     rows = []
-    for m in DETECTORS:
+    for m in COLUMNS:
         row = {"method": m}
         for b, v in h[m].groupby(bins, observed=False):
             row[f"{column} {max(b.left, 0.0):g}–{b.right:g}"] = _rate(v, "stiction")
@@ -218,10 +225,25 @@ def false_alarms_by(df: pd.DataFrame, column: str, edges: list[float]) -> pd.Dat
     return pd.DataFrame(rows)
 
 
+def trained_here(df: pd.DataFrame, real: Path) -> tuple[Consensus, pd.DataFrame]:
+    """The consensus fitted on these simulated loops (:func:`~stictionbench.realdata.
+    consensus.fit`, the search that trains the shipped one) and its scores here
+    (in-sample) and on the real loops of ``real/comparison_<dataset>.csv`` (written by
+    ``stictionbench compare``; out of sample: no real loop took part in the fit)."""
+    c = fit(df)
+    rows = [{"scored_on": "these simulated flow loops", "out_of_sample": False,
+             **score(c, df)}]
+    for f in sorted(real.glob("comparison_*.csv")):
+        loops = pd.read_csv(f).set_index("loop")
+        rows.append({"scored_on": f.stem.removeprefix("comparison_"), "out_of_sample": True,
+                     **score(c, loops)})
+    return c, pd.DataFrame(rows)
+
+
 def reasons(df: pd.DataFrame, top: int = 4) -> pd.DataFrame:
     """The most frequent reasons each method gave, with their counts."""
     rows = []
-    for m in DETECTORS:
+    for m in COLUMNS:
         vc = df[m + "_reason"].value_counts().head(top)
         rows.append({"method": m, "reasons (count)": "; ".join(f"{r} ({c})"
                                                               for r, c in vc.items())})
@@ -234,17 +256,21 @@ def main(argv: list[str] | None = None) -> int:
                     help="loops per (valve model, stick band) and 3x that per healthy cause")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default=str(ROOT / "reports" / "real"))
+    ap.add_argument("--real", default=str(ROOT / "reports" / "real"),
+                    help="folder of stictionbench compare's comparison_<dataset>.csv")
     a = ap.parse_args(argv)
     from joblib import Parallel, delayed
     from tqdm import tqdm
 
     jobs = [(k, i) for k in STICKY for i in range(a.per_cell * len(BANDS))]
     jobs += [(k, i) for k in HEALTHY for i in range(3 * a.per_cell)]
+    cons = Consensus.load()
     rows = list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator")(
-        delayed(one_loop)(k, i) for k, i in jobs), total=len(jobs), desc="flow loops"))
+        delayed(one_loop)(k, i, cons) for k, i in jobs), total=len(jobs), desc="flow loops"))
     df = pd.DataFrame(rows)
     det, fa = summarise(df)
     tot = overall(df)
+    sim_c, sim_scores = trained_here(df, Path(a.real))
     out = Path(a.out)
     figure(df, out / "flow_loops.png")
     lines = [
@@ -254,12 +280,25 @@ def main(argv: list[str] | None = None) -> int:
         f"{int((df['label'] == 'no_stiction').sum())} healthy), randomised over process, "
         "PI tuning and execution rate, noise level and colour, load, valve model and effect "
         "size (the ranges are in the script's docstring). Loop type `F`, MV withheld, each "
-        "detector with its paper's defaults; no threshold was set on these loops. Rates "
-        "with Wilson 95 % intervals.", "",
+        "detector with its paper's defaults; no threshold was set on these loops. "
+        f"`consensus` is the shipped verdict of `batch` (`conf/consensus/default.yaml`: "
+        f"{' + '.join(cons.methods)}, share ≥ {cons.threshold:.2f}), trained on the shared "
+        "real loops: its numbers here are out of sample. Rates with Wilson 95 % intervals.",
+        "",
         "![detection against the stick band](flow_loops.png)", "",
         "## Overall", "", to_markdown(tot), "",
         "## Stiction named, by stick band S (% of span)", "", to_markdown(det), "",
         "## Stiction named on healthy loops, by cause", "", to_markdown(fa), "",
+        "## A consensus trained on these loops, scored on the real loops", "",
+        "The same search that trains the shipped consensus on the real loops "
+        "(`stictionbench.realdata.consensus.fit`: method subset, share and votes by "
+        "balanced accuracy), run on these simulated loops instead: "
+        f"{' + '.join(sim_c.methods)}, share ≥ {sim_c.threshold:.2f}, ≥ {sim_c.min_votes} "
+        "vote(s). Its scores on the real loops are out of sample (the real verdicts come "
+        "from `stictionbench compare`, the same calls as in "
+        "[comparison.md](comparison.md)); balanced accuracy by loop, an inconclusive "
+        "verdict counted as not flagged.", "",
+        to_markdown(sim_scores), "",
         "## Why the methods answered as they did", "", to_markdown(reasons(df)), "",
         "## False alarms on ideal valves, against the load and against the noise", "",
         "Yamashita's premise here is that PV stands in for the unrecorded MV. In a flow "
