@@ -209,7 +209,7 @@ def judge(rec: Recording, name: str, consensus=None, *,
                  reason=why)
     final = entry["verdict"]
     entry["confidence"] = (sum(x == final for x in votes) / len(votes)) if votes else 0.5
-    entry["notes"] = period_notes(entry.get("oscillation_period_s"))
+    entry["notes"] = period_notes(entry.get("oscillation_period_s")) + tie_notes(votes)
     if diagnose == "all" or (diagnose == "flagged" and final == "stiction"):
         entry.update(diagnosis_fields(r))
     return entry
@@ -238,6 +238,26 @@ def period_notes(period_s: float | None) -> list[str]:
     return [f"oscillation period {period_s / 3600:.1f} h, about a day: a daily external "
             "cycle (ambient temperature, a production schedule) is a likelier cause than "
             "a valve limit cycle; the detectors cannot tell them apart"]
+
+
+def tie_notes(votes: list[str]) -> list[str]:
+    """A note when the consensus's deciding methods are split evenly: the verdict then
+    rests on the tie rule (share ≥ threshold), not on agreement. On a loop that neither
+    oscillates nor has set-point moves most methods abstain, and such a tie is what a
+    single method whose premise fails decides (``reports/real/flow_loops.md``: Yamashita
+    with PV for MV on regulatory flow loops). A note, not a verdict.
+
+    >>> tie_notes(["stiction", "no_stiction"])[0][:52]
+    'a tie: 1 of 2 deciding methods say stiction, so the '
+    >>> tie_notes(["stiction", "stiction", "no_stiction"])
+    []
+    """
+    k = sum(v == "stiction" for v in votes)
+    if not votes or 2 * k != len(votes):
+        return []
+    return [f"a tie: {k} of {len(votes)} deciding methods say stiction, so the verdict "
+            "rests on the consensus's tie rule; confirm with a look at the loop (see the "
+            "README's caveat for batch)"]
 
 
 def rule_dict(rule: StictionRule) -> dict[str, float]:
