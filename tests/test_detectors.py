@@ -338,3 +338,43 @@ def test_servo_loop_is_outside_the_shape_detectors_premise():
     reasons = {make(n).estimate(blind, x="OP", y="PV").diagnostics["reason"]
                for n in ("horch", "he", "area_ratio", "hagglund")}
     assert "set point moves as often as the loop oscillates" not in reasons
+
+
+# --------------------------------------------------------------------------- units
+@pytest.fixture(scope="module")
+def flow_pair() -> dict[str, Recording]:
+    """A sticky and a healthy simulated flow loop (MV not recorded) under a load."""
+    kw = {"disturbance": "load", "disturbance.load_std": "0.5"}
+    return {"sticky": _flow_loop("kano", **{"valve.S": "5.0", "valve.J": "2.5"}, **kw),
+            "healthy": _flow_loop("linear", **kw)}
+
+
+@pytest.mark.parametrize("factor, offset", [(1e3, 0.0), (1e-3, 0.0), (1.8, 32.0)])
+def test_published_verdicts_do_not_depend_on_pv_units(flow_pair, factor, offset):
+    """PV in t/h or kg/s, °C or °F: the same loop gets the same verdict from every fast
+    published method (comparison's PV-for-MV rule included). Kano's first version judged
+    PV constant within 0.25 of PV's own units: a healthy loop with PV in thousands
+    was sticky, a sticky one with PV in thousandths healthy."""
+    from stictionbench.realdata.compare import FAST, METHODS
+
+    for label, rec in flow_pair.items():
+        scaled = Recording.from_arrays(rec.t, np.asarray(rec.PV) * factor + offset, rec.OP,
+                                       SP=np.asarray(rec.SP) * factor + offset, warn=False)
+        for m in FAST:
+            a, b = METHODS[m](rec, "F"), METHODS[m](scaled, "F")
+            assert a.verdict == b.verdict, (label, m, a, b)
+    # not trivial for Kano: the sticky loop is found (the first version missed it at
+    # PV x 1000). The healthy loop is called sticky in every unit: under a load the
+    # controller holds the flow at its set point while OP moves, which is what Kano's
+    # PV-for-MV premise reads as a stuck valve (reports/real/flow_loops.md)
+    assert METHODS["kano"](flow_pair["sticky"], "F").verdict == "stiction"
+
+
+def test_kano_flow_loop_reads_pv_against_its_noise():
+    rec = _stiction_waves()
+    flow = _rec(np.asarray(rec.MV) + 0.01 * np.sin(np.arange(N)), np.asarray(rec.OP))
+    assert make("kano").estimate(flow).diagnostics["reason"] == "MV not recorded"
+    res = make("kano", flow_loop=True).estimate(flow)
+    assert res.diagnostics["valve"] == "PV" and res.decision is True
+    # the band is PV's noise floor, not mv_tolerance (in OP's units)
+    assert res.diagnostics["band"] < 0.25

@@ -19,25 +19,9 @@ from ..validation import Constraint, Interval, TypeOf
 from .base import EstimateResult
 from .detector import StictionDetector
 from .kano import finite_pair
+from .noise_floor import difference_noise
 
 SYMBOLS = ("D", "S", "I")
-
-
-def difference_noise(x: np.ndarray) -> float:
-    """Robust standard deviation of the measurement noise in the first differences of
-    ``x``: white noise of variance σ² gives second differences of variance 6σ² and first
-    differences of 2σ²; the MAD of the second differences ignores the few large ones a
-    smooth signal has at its corners.
-
-    Examples
-    --------
-    >>> e = np.random.default_rng(0).standard_normal(20000)
-    >>> round(float(difference_noise(np.linspace(0, 50, 20000) + e) / np.sqrt(2)), 1)
-    1.0
-    """
-    d2 = np.diff(np.asarray(x, dtype=float), 2)
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
-    return mad / 0.6745 / np.sqrt(6.0) * np.sqrt(2.0)
 
 
 def symbols(x: np.ndarray, tolerance: float, noise_factor: float = 3.0) -> np.ndarray:

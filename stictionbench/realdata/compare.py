@@ -12,7 +12,7 @@ Methods (each with its paper's rule and default thresholds; see the estimators):
 - ``he`` — He et al. (2007) triangle vs sine curve fitting of the control error;
 - ``area_ratio`` — Singhal & Salsbury (2005);
 - ``kano`` — Kano et al. (2004) method A on the OP–MV plot (PV stands for MV in flow
-  loops; otherwise inconclusive: MV not recorded);
+  loops, constant within its own noise floor; otherwise inconclusive: MV not recorded);
 - ``yamashita`` — Yamashita (2006) qualitative shapes (same MV rule);
 - ``hagglund`` — Hägglund (2011) shape analysis: each half period of the control error
   compared with a square and a sine wave (square ⇒ stiction); flow loops only, elsewhere
@@ -95,15 +95,16 @@ def _from_result(res) -> Call:
 
 def _detector(name: str, params: Callable[[str], dict[str, Any]] | None = None,
               mv_rule: bool = False) -> Callable[[Recording, str], Call]:
+    """A registered detector on OP and PV; with ``mv_rule`` on OP and MV, PV standing in
+    for an unrecorded MV in a flow loop (the detector is told, ``flow_loop=True``, so
+    that it judges PV against PV's own noise, not against a band in OP's units)."""
     def run(rec: Recording, kind: str) -> Call:
-        y = "PV"
-        if mv_rule:
-            if rec.MV is not None:
-                y = "MV"
-            elif kind != "F":
-                return Call("inconclusive", "MV not recorded and not a flow loop")
         kw = params(kind) if params else {}
-        return _from_result(make(name, **kw).estimate(rec, x="OP", y=y))
+        if not mv_rule:
+            return _from_result(make(name, **kw).estimate(rec, x="OP", y="PV"))
+        if rec.MV is None and kind != "F":
+            return Call("inconclusive", "MV not recorded and not a flow loop")
+        return _from_result(make(name, flow_loop=kind == "F", **kw).estimate(rec, x="OP"))
     return run
 
 
@@ -213,7 +214,7 @@ METHODS: dict[str, Callable[[Recording, str], Call]] = {
     "he": _detector("he", lambda k: {"integrating": k == "L"}),
     "area_ratio": _detector("area_ratio"),
     "kano": _detector("kano", mv_rule=True),
-    "yamashita": _detector("yamashita", lambda k: {"flow_loop": k == "F"}, mv_rule=True),
+    "yamashita": _detector("yamashita", mv_rule=True),
     "hagglund": _detector("hagglund", lambda k: {"flow_loop": k == "F"}),
     "choudhury": _choudhury,
     "hammerstein": _hammerstein,
