@@ -349,16 +349,19 @@ def flow_pair() -> dict[str, Recording]:
             "healthy": _flow_loop("linear", **kw)}
 
 
-@pytest.mark.parametrize("factor, offset", [(1e3, 0.0), (1e-3, 0.0), (1.8, 32.0)])
-def test_published_verdicts_do_not_depend_on_pv_units(flow_pair, factor, offset):
-    """PV in t/h or kg/s, °C or °F: the same loop gets the same verdict from every fast
-    published method (comparison's PV-for-MV rule included). Kano's first version judged
-    PV constant within 0.25 of PV's own units: a healthy loop with PV in thousands
-    was sticky, a sticky one with PV in thousandths healthy."""
+@pytest.mark.parametrize("factor, offset, op_factor",
+                         [(1e3, 0.0, 1.0), (1e-3, 0.0, 1.0), (1.8, 32.0, 1.0), (1.0, 0.0, 0.01)])
+def test_published_verdicts_do_not_depend_on_units(flow_pair, factor, offset, op_factor):
+    """PV in t/h or kg/s, °C or °F, OP in % or as a fraction of the travel: the same loop
+    gets the same verdict from every fast published method (comparison's PV-for-MV rule
+    included). Kano's first version judged PV constant within 0.25 of PV's own units: a
+    sticky loop with PV in thousands was healthy; Kano and Yamashita read "OP moved by
+    1 %" in OP's units, so an OP in 0–1 was always "OP constant"."""
     from stictionbench.realdata.compare import FAST, METHODS
 
     for label, rec in flow_pair.items():
-        scaled = Recording.from_arrays(rec.t, np.asarray(rec.PV) * factor + offset, rec.OP,
+        scaled = Recording.from_arrays(rec.t, np.asarray(rec.PV) * factor + offset,
+                                       np.asarray(rec.OP) * op_factor,
                                        SP=np.asarray(rec.SP) * factor + offset, warn=False)
         for m in FAST:
             a, b = METHODS[m](rec, "F"), METHODS[m](scaled, "F")

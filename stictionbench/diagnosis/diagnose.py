@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..op_range import infer_op_range
 from ..recording import Recording
 from .evidence import ALPHA, MIN_IMPROVEMENT, Verdict
 from .evidence import validate as _validate
@@ -49,7 +50,6 @@ from .locate import (
 )
 from .model import NominalModel, identify_pi
 from .noise import fit_noise_model
-from .op_range import infer_op_range
 from .openloop import highpass
 from .process import (
     MIN_SETPOINT_EXCITATION,

@@ -18,6 +18,7 @@ import numpy as np
 from scipy import signal as sps
 
 from ..errors import InputError
+from ..op_range import infer_op_range
 from ..recording import Recording
 from ..validation import check_signal
 from .base import EstimateResult, Estimator
@@ -254,6 +255,16 @@ class StictionDetector(Estimator):
         diag = {"verdict": verdict(decision), "reason": reason, **diagnostics}
         return EstimateResult(method=self.name, value=float(value), units=units,
                               decision=decision, meaning=MEANING, diagnostics=diag)
+
+    @staticmethod
+    def op_percent(op: np.ndarray) -> float:
+        """One per cent of OP's span in OP's units: 0.01 for an OP recognised as a
+        fraction of the valve's travel (:func:`~stictionbench.op_range.infer_op_range`),
+        else 1 (per cent, or units that cannot be recognised: mean-removed, milliamps).
+        The tolerances "OP moved by 1 %" are physical (a good valve's resolution) and
+        must not turn an OP in 0–1 into an "OP constant" verdict."""
+        span = infer_op_range(op)
+        return 1.0 if span is None else (span[1] - span[0]) / 100.0
 
     def _error_half_cycles(self, x: np.ndarray, y: np.ndarray | None, rec: Recording,
                            measure: Callable[..., np.ndarray]

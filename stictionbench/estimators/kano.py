@@ -114,10 +114,12 @@ class Kano(StictionDetector):
     Parameters
     ----------
     mv_tolerance : float
-        A recorded MV counts as constant within this distance (OP/MV units, % of span)
-        or within the noise floor, whichever is larger.
+        A recorded MV counts as constant within this distance (% of span) or within the
+        noise floor, whichever is larger.
     op_tolerance : float
-        OP has moved when its range over a stretch exceeds this (OP units).
+        OP has moved when its range over a stretch exceeds this (% of span; an OP
+        recognised as a fraction of the travel is read as such,
+        :meth:`~.detector.StictionDetector.op_percent`).
     threshold : float
         ``ρ`` above which the valve is called sticky.
     flow_loop : bool
@@ -167,11 +169,13 @@ class Kano(StictionDetector):
                 return self._result(nan, None, "MV not recorded", valve=None, **rule)
             y, valve = np.asarray(rec.PV, dtype=float), "PV"
         finite_pair(self.name, x, y)
-        if np.ptp(x) <= self.op_tolerance:
+        pct = self.op_percent(x)
+        op_tol = self.op_tolerance * pct
+        if np.ptp(x) <= op_tol:
             return self._result(nan, None, "OP constant", valve=valve, **rule)
         floor = self.noise_factor * difference_noise(y)
-        band = floor if valve == "PV" else max(self.mv_tolerance, floor)
-        sections, sticky = sticky_sections(x, y, band, self.op_tolerance)
+        band = floor if valve == "PV" else max(self.mv_tolerance * pct, floor)
+        sections, sticky = sticky_sections(x, y, band, op_tol)
         lengths = sections[:, 1] - sections[:, 0]
         rho = float(lengths[sticky].sum() / x.size)
         decision = rho > self.threshold

@@ -92,7 +92,9 @@ class Yamashita(StictionDetector):
     threshold : float
         ``ρ`` above which the valve is called sticky (0.25).
     op_tolerance : float
-        OP range (OP units, % of span) at or below which OP counts as constant.
+        OP range (% of span; an OP recognised as a fraction of the travel is read as
+        such, :meth:`~.detector.StictionDetector.op_percent`) at or below which OP
+        counts as constant.
 
     References
     ----------
@@ -130,7 +132,7 @@ class Yamashita(StictionDetector):
                 return self._result(nan, None, "not a flow loop", valve=None, **rule)
             y, valve = np.asarray(rec.PV, dtype=float), "PV"
         finite_pair(self.name, x, y)
-        if np.ptp(x) <= self.op_tolerance:
+        if np.ptp(x) <= self.op_tolerance * self.op_percent(x):
             return self._result(nan, None, "OP constant", valve=valve, **rule)
         times = pattern_times(x, y, self.tolerance)
         moving = x.size - 1 - times["SS"]

@@ -1,9 +1,9 @@
-"""The controller output's range: the span the valve characteristic and the closed-loop
-replay need.
+"""The controller output's range: the span the valve characteristic, the closed-loop
+replay and the stiction detectors' "OP moved by 1 %" tolerances need.
 
 OP is a percentage of the valve's travel on most plants, a fraction (0–1) on some, in
 milliamps or engineering units on others, and mean-removed in some published data sets
-(ISDB CHEM10–13). Only the equal-percentage characteristic ``R^(x − 1)`` and the
+(ISDB CHEM10–13). In the diagnosis only the equal-percentage characteristic ``R^(x − 1)`` and the
 replay's output limits depend on where OP's 0 and 100 % are; every other hypothesis is
 invariant to OP's units. The range comes from the user (``op_range: [lo, hi]`` in the
 model YAML) or is recognised from the data when that is unambiguous; otherwise it is
