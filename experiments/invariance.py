@@ -12,7 +12,11 @@ rewritten copy, and reports every verdict that changed:
 - ``iso8601`` — ``t`` as ISO 8601 date-times with a UTC offset, through a CSV file and
   :func:`stictionbench.io.read_recording` (the path a user's export takes);
 - ``pv_affine`` — PV and SP as ``1.8·x + 32`` (°C → °F);
-- ``pv_negated`` — PV and SP as ``−x`` (a reverse-acting transmitter).
+- ``pv_kilo`` — PV and SP as ``1000·x`` (t/h → kg/h);
+- ``pv_negated`` — PV and SP as ``−x`` (a reverse-acting transmitter);
+- ``op_fraction`` — OP (and MV) as a fraction of the travel instead of per cent, on the
+  recordings whose OP is recognised as per cent
+  (:func:`stictionbench.op_range.infer_op_range`; fitted S and J are converted back).
 
 Nothing is fitted here; the report is the count of changed verdicts per rewrite, with
 Wilson intervals, the changed cells, and what these checks found in earlier versions.
@@ -41,6 +45,7 @@ sys.path.insert(0, str(ROOT))
 
 from stictionbench.errors import InputError  # noqa: E402
 from stictionbench.io import atomic_path, read_recording, write_text  # noqa: E402
+from stictionbench.op_range import PERCENT, infer_op_range  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.realdata.datasets import load_csv_dir  # noqa: E402
 from stictionbench.realdata.verdict import decimate_mean, judge  # noqa: E402
@@ -74,6 +79,16 @@ def _iso(rec: Recording) -> Recording:
     return Recording.from_arrays(back.t, back.PV, back.OP, back.SP, meta=rec.meta, warn=False)
 
 
+def _op_fraction(rec: Recording) -> Recording:
+    return Recording.from_arrays(rec.t, rec.PV, rec.OP / 100.0, rec.SP,
+                                 None if rec.MV is None else rec.MV / 100.0,
+                                 meta=rec.meta, warn=False)
+
+
+#: fitted S and J of a rewrite, in the recorded loop's OP units
+OP_SCALE = {"op_fraction": 100.0}
+
+
 #: name -> rewrite of a recording that must not change a verdict
 REWRITES: dict[str, Callable[[Recording], Recording]] = {
     "recorded": lambda r: r,
@@ -81,8 +96,16 @@ REWRITES: dict[str, Callable[[Recording], Recording]] = {
     "epoch": lambda r: _rebuild(r, t=r.t - r.t[0] + EPOCH),
     "iso8601": _iso,
     "pv_affine": lambda r: _affine(r, 1.8, 32.0),
+    "pv_kilo": lambda r: _affine(r, 1000.0, 0.0),
     "pv_negated": lambda r: _affine(r, -1.0, 0.0),
+    "op_fraction": _op_fraction,
 }
+
+
+def applies(rec: Recording, rewrite: str) -> bool:
+    """``op_fraction`` only where OP is recognised as per cent: an OP in unknown units
+    (mean-removed, mA) has no 1 % of its span to keep."""
+    return rewrite != "op_fraction" or infer_op_range(rec.OP) == PERCENT
 
 
 def run_one(name: str, rec: Recording, rewrite: str) -> dict:
@@ -92,7 +115,9 @@ def run_one(name: str, rec: Recording, rewrite: str) -> dict:
     try:
         d = diagnose(decimate_mean(r))
         st = d.fits["stiction"].params
-        found = {"diagnosis": d.missing_physics, "S": st.get("S"), "J": st.get("J")}
+        k = OP_SCALE.get(rewrite, 1.0)
+        found = {"diagnosis": d.missing_physics,
+                 **{p: None if st.get(p) is None else k * st[p] for p in ("S", "J")}}
     except InputError as exc:  # e.g. too short for a training and a validation part
         found = {"diagnosis": f"refused ({str(exc).split(': ', 1)[-1]})"}
     e = judge(r, name, diagnose="none")
@@ -132,7 +157,7 @@ def _section(name: str, n_loops: int, df: pd.DataFrame) -> list[str]:
             "", *changed,
             f"The fitted S and J differ from the recorded loop's by at most "
             f"{_max_rel(df, 'S'):.2g} and {_max_rel(df, 'J'):.2g} of its S across the "
-            "rewrites (both are in OP's units, which no rewrite touches).", ""]
+            "rewrites (in the recorded OP's units; `op_fraction`'s converted back).", ""]
 
 
 def main(argv=None) -> int:
@@ -151,7 +176,7 @@ def main(argv=None) -> int:
     for data in folders:
         recs, _ = load_csv_dir(data, warn=False)
         recs = {k: v for k, v in recs.items() if v.meta.get("label")}
-        tasks = [(n, r, w) for n, r in recs.items() for w in REWRITES]
+        tasks = [(n, r, w) for n, r in recs.items() for w in REWRITES if applies(r, w)]
         rows = Parallel(n_jobs=a.jobs, return_as="generator")(
             delayed(run_one)(*t) for t in tasks)
         df = pd.DataFrame(list(tqdm(rows, total=len(tasks), desc=f"invariance {data.name}",
@@ -169,8 +194,10 @@ def main(argv=None) -> int:
         "`batch` entry (every published detector and the consensus) on each labelled "
         "recording as recorded and rewritten in another unit of time (`minutes`), from "
         "another clock origin (`epoch`, 1.7·10⁹ s), as ISO 8601 date-times through a CSV "
-        "file (`iso8601`), with PV and SP as 1.8·x + 32 (`pv_affine`) and as −x "
-        "(`pv_negated`). None of these may change a verdict. Nothing is fitted here; "
+        "file (`iso8601`), with PV and SP as 1.8·x + 32 (`pv_affine`), as 1000·x "
+        "(`pv_kilo`) and as −x (`pv_negated`), and with OP as a fraction of the travel "
+        "(`op_fraction`, on the recordings whose OP is recognised as per cent). None of "
+        "these may change a verdict. Nothing is fitted here; "
         "rates carry Wilson 95 % intervals.", "",
         *sections,
         "## What these checks found before", "",
@@ -183,7 +210,14 @@ def main(argv=None) -> int:
         "(2411FIC20102_1107_0006: dead_time → deadband): Nelder–Mead stopped on an "
         "absolute tolerance in PV² units, and a search that stops elsewhere seeds the "
         "next one elsewhere. The criteria are now divided by PV's mean square "
-        "(`test_model_free_fit_does_not_depend_on_pv_units`).", "",
+        "(`test_model_free_fit_does_not_depend_on_pv_units`).",
+        "- `pv_kilo` and `op_fraction` were added with commit 59394d7: Kano's method "
+        "judged PV (standing in for MV in flow loops) constant within 0.25 of PV's own "
+        "units, and Kano and Yamashita read 'OP moved by 1 %' in OP's units. Rescaling "
+        "PV by 10⁻³ or 10³ changed Kano's verdict on 8 of 14 ISDB loops and on all 33 "
+        "usable refinery windows; OP as a fraction made both methods inconclusive "
+        "('OP constant') everywhere "
+        "(`tests/test_detectors.py::test_published_verdicts_do_not_depend_on_units`).", "",
     ]
     write_text(out / "invariance.md", "\n".join(lines))
     print("\n".join(lines[4:]))

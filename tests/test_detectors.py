@@ -381,3 +381,28 @@ def test_kano_flow_loop_reads_pv_against_its_noise():
     assert res.diagnostics["valve"] == "PV" and res.decision is True
     # the band is PV's noise floor, not mv_tolerance (in OP's units)
     assert res.diagnostics["band"] < 0.25
+
+
+def test_noise_floor_survives_historian_compression():
+    """Held and bridged samples carry no noise: the floor is measured on the stored ones
+    (it collapsed to rounding at half the steps held, and every change read as a move)."""
+    from stictionbench.estimators.noise_floor import difference_noise
+    from stictionbench.realdata.quality import release_holds
+
+    rng = np.random.default_rng(3)
+    t = np.arange(4000.0)
+    pv = 50 + 5 * np.sin(2 * np.pi * t / 400) + rng.standard_normal(t.size)
+    op = 40 + 2 * np.sin(2 * np.pi * t / 400 + 1) + 0.2 * rng.standard_normal(t.size)
+    rec = Recording.from_arrays(t, pv, op, warn=False)
+    held = sb_compress(rec)
+    bridged, filled = release_holds(held)
+    assert filled > 0.3 * t.size
+    for r in (held, bridged):
+        ratio = difference_noise(r.PV) / difference_noise(pv)
+        assert 0.8 < ratio < 3.0, ratio
+
+
+def sb_compress(rec: Recording) -> Recording:
+    from stictionbench.sim.measurement import historian_compression
+
+    return historian_compression(rec, 0.5, joint=True)
