@@ -217,7 +217,13 @@ def main(argv=None) -> int:
         "PV by 10⁻³ or 10³ changed Kano's verdict on 8 of 14 ISDB loops and on all 33 "
         "usable refinery windows; OP as a fraction made both methods inconclusive "
         "('OP constant') everywhere "
-        "(`tests/test_detectors.py::test_published_verdicts_do_not_depend_on_units`).", "",
+        "(`tests/test_detectors.py::test_published_verdicts_do_not_depend_on_units`).",
+        "- The first run of `op_fraction` (commit ea62866) changed 3 of the 46 refinery "
+        "diagnoses (2111FIC10201_1212_0002 deadband → none, 2111FIC46005_0902_0003 "
+        "stiction → none, 2411FIC20102_1107_0006 dead_time → none): the stiction and "
+        "dead-band searches started at 0.05 and were bounded below by 0.01 in OP's units, "
+        "5 % and 1 % of a fractional OP's travel. They now scale with OP's range "
+        "(`tests/test_diagnose.py::test_valve_searches_do_not_depend_on_op_units`).", "",
     ]
     write_text(out / "invariance.md", "\n".join(lines))
     print("\n".join(lines[4:]))

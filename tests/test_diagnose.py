@@ -620,3 +620,26 @@ def test_verdict_does_not_depend_on_the_unit_of_time(stiction_rec):
     assert e.missing_physics == d.missing_physics == "dead_time"
     assert e.parameters["dead_time"] == pytest.approx(d.parameters["dead_time"] / 60.0,
                                                       rel=0.01)
+
+
+def test_valve_searches_do_not_depend_on_op_units(stiction_rec):
+    # OP as a fraction of the travel instead of per cent: the stiction and dead-band
+    # searches start at 0.05 % of the travel either way (they started at 0.05 OP units:
+    # 5 % of a fractional OP, and three refinery diagnoses changed, invariance.md)
+    rec = _rec(valve="deadband", valve__deadband=0.4)
+    d = diagnose(rec, NOM)
+    frac = sb.Recording.from_arrays(rec.t, rec.PV, rec.OP / 100.0, SP=rec.SP)
+    e = diagnose(frac, replace(NOM, gain=300.0, kc=0.002))
+    assert e.details["op_range"] == [0.0, 1.0]
+    assert e.missing_physics == d.missing_physics == "deadband"
+    assert 100.0 * e.parameters["deadband"] == pytest.approx(d.parameters["deadband"],
+                                                             rel=0.02)
+    d = diagnose(stiction_rec)
+    e = diagnose(sb.Recording.from_arrays(stiction_rec.t, stiction_rec.PV,
+                                          stiction_rec.OP / 100.0, SP=stiction_rec.SP))
+    assert e.missing_physics == d.missing_physics
+    for k in ("S", "J"):
+        width = d.details["hammerstein"][f"{k}_interval"][1] - \
+            d.details["hammerstein"][f"{k}_interval"][0]
+        assert abs(100.0 * e.details["hammerstein"][k] - d.details["hammerstein"][k]) \
+            <= 0.05 * width, k

@@ -313,7 +313,7 @@ def _valve_fits(cmp: Comparison, names: tuple[str, ...], h: HammersteinResult,
     gate = (h.tests["valve_vs_linear"]["p_value"] if h.consistent else 1.0) if free else None
     if "stiction" in names:
         code = 0 if h.stop_rule == "reversal" else 2
-        ft = fit_at(prob_h, HYPOTHESES["stiction"], [max(h.S, 1e-3), h.J, code])
+        ft = fit_at(prob_h, HYPOTHESES["stiction"], [max(h.S, 1e-3 * c.op_unit), h.J, code])
         ft.intervals = {"S": h.S_interval, "J": h.J_interval}
         ft.n_params += 2 * free
         ft.extra = {**ft.extra, **extra, "slip_jump_zero": h.tests["slip_jump_zero"]}

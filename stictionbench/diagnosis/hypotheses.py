@@ -80,6 +80,14 @@ class Context:
     def op_span(self) -> float:
         return float(np.ptp(self.op)) or 1.0
 
+    @property
+    def op_unit(self) -> float:
+        """One per cent of OP's range in OP's units (1 when the range is unknown): the
+        scale of the valve searches' fixed ends (0.05 % … of the travel), so that an OP
+        recorded as a fraction of the travel is searched over the same valves as in
+        per cent."""
+        return 1.0 if self.op_range is None else (self.op_range[1] - self.op_range[0]) / 100.0
+
 
 class Hypothesis:
     """Base class: ``name``, parameter names, a coarse grid, bounds and regressors."""
@@ -166,16 +174,16 @@ class Stiction(Hypothesis):
         return math.inf
 
     def grid(self, ctx):
-        span = ctx.op_span
+        span, u = ctx.op_span, ctx.op_unit
         # the cost is rugged in (S, J) (a slip one sample early shifts the whole cycle):
         # a dense coarse grid before the local refinement
-        Ss = np.geomspace(0.05, max(0.1, 0.9 * span), 30)
+        Ss = np.geomspace(0.05 * u, max(0.1 * u, 0.9 * span), 30)
         return [np.array([s, f * s, m]) for m in (0, 1, 2) for s in Ss
                 for f in (0.0, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.25)]
 
     def bounds(self, ctx):
-        span = ctx.op_span
-        return [(0.01, max(0.1, 1.2 * span)), (0.0, max(0.1, 1.2 * span))]
+        span, u = ctx.op_span, ctx.op_unit
+        return [(0.01 * u, max(0.1 * u, 1.2 * span)), (0.0, max(0.1 * u, 1.2 * span))]
 
     def valve_output(self, ctx, p):
         return stiction_valve(ctx.op, float(p[0]), float(min(p[1], 1.5 * p[0])),
@@ -198,10 +206,13 @@ class Deadband(Hypothesis):
     params = ("deadband",)
 
     def grid(self, ctx):
-        return [np.array([d]) for d in np.geomspace(0.05, max(0.1, 0.9 * ctx.op_span), 24)]
+        u = ctx.op_unit
+        return [np.array([d]) for d in np.geomspace(0.05 * u, max(0.1 * u, 0.9 * ctx.op_span),
+                                                     24)]
 
     def bounds(self, ctx):
-        return [(0.01, max(0.1, 1.2 * ctx.op_span))]
+        u = ctx.op_unit
+        return [(0.01 * u, max(0.1 * u, 1.2 * ctx.op_span))]
 
     def valve_output(self, ctx, p):
         return play(ctx.op, float(p[0]))
