@@ -214,9 +214,9 @@ def main(argv=None) -> int:
         "- `pv_kilo` and `op_fraction` were added with commit 59394d7: Kano's method "
         "judged PV (standing in for MV in flow loops) constant within 0.25 of PV's own "
         "units, and Kano and Yamashita read 'OP moved by 1 %' in OP's units. Rescaling "
-        "PV by 10⁻³ or 10³ changed Kano's verdict on 8 of 14 ISDB loops and on all 33 "
-        "usable refinery windows; OP as a fraction made both methods inconclusive "
-        "('OP constant') everywhere "
+        "PV by 10⁻³ or 10³ changed Kano's verdict on 8 of the 9 ISDB flow loops and on 33 "
+        "of the 36 usable refinery flow windows; with OP as a fraction both methods "
+        "answered 'OP constant' on every flow loop "
         "(`tests/test_detectors.py::test_published_verdicts_do_not_depend_on_units`).",
         "- The first run of `op_fraction` (commit ea62866) changed 3 of the 46 refinery "
         "diagnoses (2111FIC10201_1212_0002 deadband → none, 2111FIC46005_0902_0003 "

@@ -104,7 +104,8 @@ class Kano(StictionDetector):
     being the robust noise of its first differences
     (:func:`~.noise_floor.difference_noise`), because ``mv_tolerance`` is in OP's units
     and PV is not (a first version applied 0.25 to PV in t/h, bar or %: its verdict on
-    8 of 14 ISDB loops and 33 refinery windows changed when PV was rescaled by 10⁻³).
+    8 of the 9 ISDB flow loops and 33 of the 36 usable refinery flow windows changed
+    when PV was rescaled by 10⁻³ or 10³).
     OP must move by more than the 1 % dead band a good control valve is allowed (EnTech
     control valve dynamic specification, 1998) and by more than its own noise floor
     (``noise_factor·σ_Δ`` of OP: a PI passes PV's noise to OP), while MV stays within a
