@@ -256,6 +256,17 @@ class StictionDetector(Estimator):
         return EstimateResult(method=self.name, value=float(value), units=units,
                               decision=decision, meaning=MEANING, diagnostics=diag)
 
+    def valve_signal(self, y: np.ndarray | None, rec: Recording
+                     ) -> tuple[np.ndarray | None, str | None]:
+        """The valve position and where it comes from: MV as recorded (``"MV"``), PV
+        standing in for an unrecorded MV in a flow loop (the detector's ``flow_loop``;
+        ``"PV"``: the flow follows the valve without dynamics), else ``(None, None)``."""
+        if y is not None:
+            return y, "MV"
+        if getattr(self, "flow_loop", False):
+            return np.asarray(rec.PV, dtype=float), "PV"
+        return None, None
+
     @staticmethod
     def op_percent(op: np.ndarray) -> float:
         """One per cent of OP's span in OP's units: 0.01 for an OP recognised as a

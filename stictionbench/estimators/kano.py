@@ -169,11 +169,9 @@ class Kano(StictionDetector):
                 "op_tolerance": self.op_tolerance, "flow_loop": self.flow_loop,
                 "noise_factor": self.noise_factor}
         nan = float("nan")
-        valve = "MV"
+        y, valve = self.valve_signal(y, rec)
         if y is None:
-            if not self.flow_loop:
-                return self._result(nan, None, "MV not recorded", valve=None, **rule)
-            y, valve = np.asarray(rec.PV, dtype=float), "PV"
+            return self._result(nan, None, "MV not recorded", valve=None, **rule)
         finite_pair(self.name, x, y)
         pct = self.op_percent(x)
         # OP "moved" beyond a good valve's resolution and beyond its own noise (a PI

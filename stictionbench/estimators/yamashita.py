@@ -126,11 +126,9 @@ class Yamashita(StictionDetector):
         rule = {"threshold": self.threshold, "tolerance": self.tolerance,
                 "op_tolerance": self.op_tolerance, "flow_loop": self.flow_loop}
         nan = float("nan")
-        valve = "MV"
+        y, valve = self.valve_signal(y, rec)
         if y is None:
-            if not self.flow_loop:
-                return self._result(nan, None, "not a flow loop", valve=None, **rule)
-            y, valve = np.asarray(rec.PV, dtype=float), "PV"
+            return self._result(nan, None, "not a flow loop", valve=None, **rule)
         finite_pair(self.name, x, y)
         if np.ptp(x) <= self.op_tolerance * self.op_percent(x):
             return self._result(nan, None, "OP constant", valve=valve, **rule)
