@@ -176,8 +176,10 @@ def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
     head = p.read_bytes()[:4096]
     if b"\x00" in head:
         raise InputError(f"{p}: binary data, not a CSV text file")
+    sep = _delimiter(head)
     try:
-        frame = pd.read_csv(p, dtype=str, keep_default_na=False, skipinitialspace=True)
+        frame = pd.read_csv(p, sep=sep, dtype=str, keep_default_na=False,
+                            skipinitialspace=True, encoding="utf-8-sig")
     except UnicodeDecodeError:
         raise InputError(f"{p}: not UTF-8 text, not a CSV file") from None
     except pd.errors.EmptyDataError:
@@ -185,7 +187,56 @@ def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
     except pd.errors.ParserError as exc:
         raise InputError(f"{p}: not a valid CSV file ({str(exc).splitlines()[0]})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
+    if sep != ",":
+        # a CSV written with ';' or a tab is usually one with a decimal comma (the
+        # spreadsheet export of a European locale): "1,5" is read as 1.5
+        frame = frame.apply(lambda c: c.str.replace(r"^(\s*[-+]?\d*),(\d+\s*)$", r"\1.\2",
+                                                    regex=True))
     return str(p), _frame_columns(frame, str(p), first_row=2, text=True), 2
+
+
+#: column delimiters recognised in a CSV's header line, in order of preference
+DELIMITERS = (",", ";", "\t", "|")
+
+
+def _delimiter(head: bytes) -> str:
+    """The delimiter of a CSV from its header line: the first of :data:`DELIMITERS` that
+    splits it into at least three fields (``t``, ``PV``, ``OP``), else ``,``.
+
+    Examples
+    --------
+    >>> _delimiter(b"t;SP;PV;OP\\n0;1,5;2;3\\n"), _delimiter(b"t,PV,OP\\n")
+    (';', ',')
+    """
+    line = head.decode("utf-8", errors="replace").lstrip("\ufeff").splitlines()[:1]
+    for sep in DELIMITERS:
+        if line and len(line[0].split(sep)) >= len(REQUIRED):
+            return sep
+    return ","
+
+
+#: other names of the time column (compared without case)
+TIME_ALIASES = ("time", "timestamp", "datetime", "date_time", "time_s", "t_s")
+
+
+def _canonical_columns(frame: pd.DataFrame, source: str) -> pd.DataFrame:
+    """Rename columns that match a signal's name up to case (``pv``, ``Op``) or a time
+    alias (:data:`TIME_ALIASES`) to the canonical ``t, SP, PV, OP, MV``; a name matched by
+    two columns is an error, an exact name is never renamed."""
+    names = [str(c) for c in frame.columns]
+    wanted = {c.lower(): c for c in COLUMNS}
+    wanted.update({a: "t" for a in TIME_ALIASES})
+    rename: dict[str, str] = {}
+    for canon in COLUMNS:
+        if canon in names:
+            continue
+        hits = [c for c in names if wanted.get(c.lower()) == canon]
+        if len(hits) > 1:
+            raise InputError(f"{source}: columns {', '.join(hits)} could each be {canon}; "
+                             f"rename one")
+        if hits:
+            rename[hits[0]] = canon
+    return frame.rename(columns=rename) if rename else frame
 
 
 def _read_parquet(p: Path) -> tuple[str, dict[str, Any], int]:
@@ -198,6 +249,7 @@ def _read_parquet(p: Path) -> tuple[str, dict[str, Any], int]:
 
 def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bool
                    ) -> dict[str, Any]:
+    frame = _canonical_columns(frame, source)
     missing = [c for c in REQUIRED if c not in frame.columns]
     if missing:
         raise InputError(

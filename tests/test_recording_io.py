@@ -207,3 +207,32 @@ def test_a_bad_timestamp_names_its_row(tmp_path):
     p.write_text("\n".join(rows) + "\n")
     with pytest.raises(InputError, match=r"row 32, column t: not a number or ISO 8601"):
         read_recording(p)
+
+
+@pytest.mark.parametrize("sep", [";", "\t", "|"])
+def test_semicolon_tab_and_decimal_comma_csv_read_as_the_comma_one(tmp_path, sep):
+    """A spreadsheet export from a European locale (``;`` or tab, decimal comma) and a
+    pipe-separated export give the same numbers as the plain CSV."""
+    plain = tmp_path / "plain.csv"
+    plain.write_text(_frame_text())
+    lines = _frame_text().splitlines()
+    text = "\n".join(line.replace(",", sep) if sep != ";" else
+                     ";".join(v.replace(".", ",") for v in line.split(",")) for line in lines)
+    other = tmp_path / "other.csv"
+    other.write_text(text + "\n", encoding="utf-8-sig")  # with a byte-order mark
+    a, b = read_recording(plain), read_recording(other)
+    for c in ("t", "SP", "PV", "OP"):
+        np.testing.assert_array_equal(getattr(a, c), getattr(b, c))
+
+
+def test_column_names_matched_without_case_and_time_aliases(tmp_path):
+    base = _frame_text().splitlines()
+    p = tmp_path / "lower.csv"
+    p.write_text("\n".join(["Time,sp,pv,Op"] + base[1:]) + "\n")
+    rec = read_recording(p)
+    assert rec.columns == ("t", "SP", "PV", "OP")
+    np.testing.assert_allclose(rec.PV[:3], [np.sin(i / 7) for i in range(3)], atol=1e-6)
+    q = tmp_path / "two.csv"
+    q.write_text("\n".join(["t,pv,Pv,OP"] + [r + ",0" for r in base[1:]]) + "\n")
+    with pytest.raises(InputError, match="pv, Pv could each be PV"):
+        read_recording(q)
