@@ -195,6 +195,20 @@ def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
     return str(p), _frame_columns(frame, str(p), first_row=2, text=True), 2
 
 
+def csv_columns(path: str | os.PathLike[str]) -> list[str] | None:
+    """The header of a CSV file as :func:`read_recording` reads it (delimiter sniffed,
+    names made canonical by :func:`_canonical_columns`), or None when it cannot be read
+    as text or is ambiguous (:func:`read_recording` then gives the precise message)."""
+    p = Path(path)
+    try:
+        head = p.read_bytes()[:4096]
+        frame = pd.read_csv(p, sep=_delimiter(head), nrows=0, encoding="utf-8-sig")
+        frame.columns = [str(c).strip() for c in frame.columns]
+        return [str(c) for c in _canonical_columns(frame, str(p)).columns]
+    except Exception:  # noqa: BLE001 - any unreadable header: let read_recording say why
+        return None
+
+
 #: column delimiters recognised in a CSV's header line, in order of preference
 DELIMITERS = (",", ";", "\t", "|")
 

@@ -122,6 +122,21 @@ def test_a_file_cut_by_an_outage_gives_windows_of_one_loop(loops, tmp_path):
     assert len(recs["outage@2-1501"]) == 1500
 
 
+def test_a_european_spreadsheet_export_is_a_recording_of_the_folder(loops, tmp_path):
+    # ';' as the delimiter, a decimal comma and lower-case names: loaded, not skipped as
+    # "a table without t, PV, OP", and read as the same numbers
+    from stictionbench.realdata.datasets import load_csv_dir
+
+    frame = loops["sticky"].to_frame()[["t", "SP", "PV", "OP"]]
+    frame.to_csv(tmp_path / "plain.csv", index=False)
+    frame.rename(columns=str.lower).to_csv(tmp_path / "export.csv", index=False, sep=";",
+                                           decimal=",")
+    recs, skipped = load_csv_dir(tmp_path, warn=False)
+    assert skipped == [] and sorted(recs) == ["export", "plain"]
+    for c in ("t", "SP", "PV", "OP"):
+        assert (getattr(recs["export"], c) == getattr(recs["plain"], c)).all()
+
+
 def _rewritten(rec, how):
     """The same loop written down differently: t in minutes, or PV and SP reversed."""
     if how == "minutes":

@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from ..io import check_input_file, read_stretches
+from ..io import check_input_file, csv_columns, read_stretches
 from ..recording import REQUIRED, Recording
 
 #: ISDB sector field -> loop-name prefix used in the book (Jelali & Huang 2010)
@@ -463,15 +463,6 @@ def read_labels(path: str | os.PathLike[str]) -> pd.DataFrame:
     return df.set_index("loop", drop=False).rename_axis(None)
 
 
-def _csv_columns(p: Path) -> list[str] | None:
-    """Header of a CSV file, or None when it cannot be read as text."""
-    try:
-        head = pd.read_csv(p, nrows=0)
-    except Exception:  # let read_recording produce the precise message
-        return None
-    return [str(c).strip() for c in head.columns]
-
-
 def _with_meta(rec: Recording, extra: Mapping[str, Any]) -> Recording:
     """The same Recording with ``extra`` merged into its metadata (no re-validation)."""
     md = dict(rec.meta)
@@ -545,7 +536,7 @@ def load_csv_dir(
     recs: dict[str, Recording] = {}
     skipped: Skipped = []
     for f in sorted(d.glob("*.csv")):
-        cols = _csv_columns(f)
+        cols = csv_columns(f)
         if cols is not None:
             missing = [c for c in REQUIRED if c not in cols]
             if missing:
