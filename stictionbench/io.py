@@ -209,6 +209,15 @@ def csv_columns(path: str | os.PathLike[str]) -> list[str] | None:
         return None
 
 
+#: status words a historian writes in place of a value (OSIsoft PI's system digital
+#: states and their like in other historians' exports), compared without case: read as a
+#: missing sample, like an empty cell, so the gap rules of :class:`Recording` apply
+HISTORIAN_STATES = frozenset({
+    "bad", "bad input", "bad data", "bad quality", "bad value", "i/o timeout",
+    "comm fail", "calc failed", "calc timeout", "no data", "no sample", "not connected",
+    "scan off", "scan timeout", "shutdown", "pt created", "over range", "under range",
+    "out of service", "invalid data", "#n/a", "n/a"})
+
 #: column delimiters recognised in a CSV's header line, in order of preference
 DELIMITERS = (",", ";", "\t", "|")
 
@@ -277,7 +286,8 @@ def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bo
         col = frame[name]
         if text:
             s = col.astype(str).str.strip()
-            empty = s.isin(["", "nan", "NaN", "NA", "null", "None"])
+            empty = s.isin(["", "nan", "NaN", "NA", "null", "None"]) | \
+                s.str.lower().isin(HISTORIAN_STATES)
             num = pd.to_numeric(s.where(~empty, None), errors="coerce")
             bad = num.isna() & ~empty
             if name == "t" and bad.any():

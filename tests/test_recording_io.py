@@ -236,3 +236,18 @@ def test_column_names_matched_without_case_and_time_aliases(tmp_path):
     q.write_text("\n".join(["t,pv,Pv,OP"] + [r + ",0" for r in base[1:]]) + "\n")
     with pytest.raises(InputError, match="pv, Pv could each be PV"):
         read_recording(q)
+
+
+def test_historian_status_words_are_missing_samples(tmp_path, capsys):
+    """'Bad Input', 'I/O Timeout' (OSIsoft PI digital states) are gaps, interpolated when
+    short; other text is still an error naming its row."""
+    lines = _frame_text().splitlines()
+    for row, word in ((11, "Bad Input"), (12, "I/O Timeout"), (40, "shutdown")):
+        parts = lines[row].split(",")
+        parts[2] = word
+        lines[row] = ",".join(parts)
+    p = tmp_path / "pi.csv"
+    p.write_text("\n".join(lines) + "\n")
+    rec = read_recording(p)
+    assert np.isfinite(rec.PV).all() and len(rec) == 200
+    assert "interpolated" in capsys.readouterr().err
