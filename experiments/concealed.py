@@ -351,8 +351,9 @@ def summary(df: pd.DataFrame, tuned: tuple[float, float], lofo_tab: pd.DataFrame
     if not (args.model_free or args.output_error):
         lines += ["The sticky valves missed here, checked against one cause by varying it "
                   "(the same recordings with the controller's period changed to the "
-                  "historian's): [stiction_controller_rate.md](stiction_controller_rate.md).",
-                  ""]
+                  "historian's), and whether their slip jump is in the 1 s signals at all "
+                  "(Kano's sampled model fitted to the true valve position): "
+                  "[stiction_controller_rate.md](stiction_controller_rate.md).", ""]
     lines += ["Median relative error of the class's main parameter "
               "where it was named (LOFO):", "",
               to_markdown(per.pivot_table(index=["class", "level"], columns="family",

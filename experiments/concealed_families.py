@@ -169,7 +169,10 @@ def _simulate_family(c: Case, controller_s: float | None = None) -> dict[str, np
     if c.family == "sim_he":
         q = 0.5 * c.noise
         pv, op = np.round(pv / q) * q, np.round(op / 0.05) * 0.05
-    return {"t": np.asarray(rec.t, float), "SP": np.asarray(rec.SP, float), "PV": pv, "OP": op}
+    # MV (the valve position) is returned for checks that need the truth; the benchmark
+    # never writes it (``concealed.write_job`` keeps t, SP, PV, OP)
+    return {"t": np.asarray(rec.t, float), "SP": np.asarray(rec.SP, float), "PV": pv, "OP": op,
+            "MV": np.asarray(rec.MV, float)}
 
 
 # ---------------------------------------------------------------- the independent loop
