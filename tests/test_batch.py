@@ -137,6 +137,26 @@ def test_a_european_spreadsheet_export_is_a_recording_of_the_folder(loops, tmp_p
         assert (getattr(recs["export"], c) == getattr(recs["plain"], c)).all()
 
 
+def test_without_a_labels_table_the_flow_methods_read_the_tag(loops, tmp_path):
+    # a folder of plant exports without labels.csv: Kano's and Yamashita's methods (flow
+    # loops only) take the loop type from the ISA-5.1 tag in the file name, as they take
+    # it from the labels table's loop_type; a name without a tag leaves it unknown
+    from stictionbench.realdata.compare import loop_type
+    from stictionbench.realdata.datasets import load_csv_dir
+
+    frame = loops["sticky"].to_frame()[["t", "SP", "PV", "OP"]]  # MV not recorded
+    for name in ("2411FIC20102_0609", "loop7"):
+        frame.to_csv(tmp_path / f"{name}.csv", index=False)
+    recs, _ = load_csv_dir(tmp_path, warn=False)
+    assert loop_type(recs["2411FIC20102_0609"]) == "F"
+    assert loop_type(recs["loop7"]) == "?"
+    out = tmp_path / "b.json"
+    assert main(["batch", str(tmp_path), "--json", str(out), "--jobs", "1"]) == 0
+    meth = {r["name"]: r["methods"] for r in json.loads(out.read_text())["recordings"]}
+    assert meth["loop7"]["kano"]["reason"] == "MV not recorded and not a flow loop"
+    assert meth["2411FIC20102_0609"]["kano"]["reason"] != "MV not recorded and not a flow loop"
+
+
 def _rewritten(rec, how):
     """The same loop written down differently: t in minutes, or PV and SP reversed."""
     if how == "minutes":

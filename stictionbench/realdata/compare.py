@@ -38,6 +38,7 @@ The two model-based methods share one fit (about a second per window).
 from __future__ import annotations
 
 import math
+import re
 from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -58,9 +59,31 @@ TYPE_WORDS = {"flow": "F", "level": "L", "pressure": "P", "temperature": "T",
               "analyser": "A", "concentration": "A", "composition": "A"}
 
 
+#: an ISA-5.1 controller tag in a loop's name: the measured variable's letter(s) (PD
+#: differential pressure, F flow, L level, P pressure, T temperature, A analysis), then
+#: I (indicating) and/or R (recording), then C (controller), then the loop number
+TAG = re.compile(r"(?<![A-Z])(PD|F|L|P|T|A)(?:I|R|IR|RI)?C(?=[-_.]?\d)")
+
+
+def tag_type(name: str) -> str:
+    """Loop type from an ISA-5.1 controller tag in ``name`` (``2411FIC20102``,
+    ``..._LIC63001``, ``PDIC-12``, ``FC445``); ``"?"`` when there is none, or when
+    different tags in the name disagree.
+
+    Examples
+    --------
+    >>> [tag_type(n) for n in ("2411FIC20102", "LYCDU.CDU.7040-312_LIC63001", "PDIC-12",
+    ...                        "FC445", "CHEM12", "loop7")]
+    ['F', 'L', 'PD', 'F', '?', '?']
+    """
+    kinds = set(TAG.findall(name.upper()))
+    return kinds.pop() if len(kinds) == 1 else "?"
+
+
 def loop_type(rec: Recording) -> str:
-    """Loop type from the labels (``loop_type``, else the first word of ``desc``);
-    ``"?"`` when unknown.
+    """Loop type from the labels (``loop_type``, else the first word of ``desc``), else
+    from an ISA-5.1 controller tag in the loop's name (:func:`tag_type`: a folder of
+    recordings without a labels table); ``"?"`` when unknown.
 
     Examples
     --------
@@ -68,12 +91,17 @@ def loop_type(rec: Recording) -> str:
     ...                           meta={"labels": {"desc": "flow; FC145"}})
     >>> loop_type(r)
     'F'
+    >>> loop_type(Recording.from_arrays(np.arange(200.0), np.zeros(200), np.ones(200),
+    ...                                 meta={"group": "2111FIC46005"}))
+    'F'
     """
     lab = dict(rec.meta.get("labels") or {})
     if lab.get("loop_type"):
         return str(lab["loop_type"]).upper()
     word = str(lab.get("desc", "")).split(";")[0].strip().lower()
-    return TYPE_WORDS.get(word, "?")
+    if word in TYPE_WORDS:
+        return TYPE_WORDS[word]
+    return tag_type(str(rec.meta.get("group") or rec.meta.get("name") or ""))
 
 
 @dataclass(frozen=True)
