@@ -56,7 +56,8 @@ VERDICTS = ("stiction", "no_stiction", "inconclusive")
 #: loop types of plant tags and ISDB descriptions: F flow, L level, P pressure,
 #: T temperature, A analyser/concentration/composition, PD differential pressure
 TYPE_WORDS = {"flow": "F", "level": "L", "pressure": "P", "temperature": "T",
-              "analyser": "A", "concentration": "A", "composition": "A"}
+              "analyser": "A", "analyzer": "A", "concentration": "A", "composition": "A",
+              "differential pressure": "PD"}
 
 
 #: an ISA-5.1 controller tag in a loop's name: the measured variable's letter(s) (PD
@@ -80,6 +81,19 @@ def tag_type(name: str) -> str:
     return kinds.pop() if len(kinds) == 1 else "?"
 
 
+def _type_code(given: str) -> str:
+    """A labels table's ``loop_type`` as a code: a code (``F``, ``PD``) as it is, a word
+    (``flow``, ``Level``) or a tag's letters (``FIC``) translated, anything else upper-case."""
+    given = given.strip()
+    if given.lower() in TYPE_WORDS:
+        return TYPE_WORDS[given.lower()]
+    code = given.upper()
+    if code in TYPE_WORDS.values():
+        return code
+    from_tag = tag_type(code + "-0")
+    return from_tag if from_tag != "?" else code
+
+
 def loop_type(rec: Recording) -> str:
     """Loop type from the labels (``loop_type``, else the first word of ``desc``), else
     from an ISA-5.1 controller tag in the loop's name (:func:`tag_type`: a folder of
@@ -94,10 +108,14 @@ def loop_type(rec: Recording) -> str:
     >>> loop_type(Recording.from_arrays(np.arange(200.0), np.zeros(200), np.ones(200),
     ...                                 meta={"group": "2111FIC46005"}))
     'F'
+    >>> [loop_type(Recording.from_arrays(np.arange(200.0), np.zeros(200), np.ones(200),
+    ...                                  meta={"labels": {"loop_type": v}}))
+    ...  for v in ("F", "flow", "Level", "FIC", "PD", "pH")]
+    ['F', 'F', 'L', 'F', 'PD', 'PH']
     """
     lab = dict(rec.meta.get("labels") or {})
     if lab.get("loop_type"):
-        return str(lab["loop_type"]).upper()
+        return _type_code(str(lab["loop_type"]))
     word = str(lab.get("desc", "")).split(";")[0].strip().lower()
     if word in TYPE_WORDS:
         return TYPE_WORDS[word]
