@@ -316,6 +316,11 @@ def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bo
                 cols[name] = pd.to_numeric(col, errors="raise").to_numpy(dtype=float)
             except (ValueError, TypeError):
                 raise InputError(f"{source}: column {name} is not numeric") from None
+    # an optional signal's column with no value at all (an export's empty SP or MV) is a
+    # signal not recorded, not a gap that cuts the whole record
+    for name in ("SP", "MV"):
+        if name in cols and np.isnan(cols[name]).all():
+            del cols[name]
     return cols
 
 

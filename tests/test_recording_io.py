@@ -251,3 +251,18 @@ def test_historian_status_words_are_missing_samples(tmp_path, capsys):
     rec = read_recording(p)
     assert np.isfinite(rec.PV).all() and len(rec) == 200
     assert "interpolated" in capsys.readouterr().err
+
+
+def test_an_empty_optional_column_is_a_signal_not_recorded(tmp_path):
+    lines = _frame_text().splitlines()
+    p = tmp_path / "empty_sp.csv"
+    p.write_text("\n".join(["t,SP,PV,OP,MV"] + [",".join(r.split(",")[:1] + [""] +
+                                                      r.split(",")[2:] + [""])
+                                                for r in lines[1:]]) + "\n")
+    rec = read_recording(p)
+    assert rec.SP is None and rec.MV is None and len(rec) == 200
+    q = tmp_path / "empty_pv.csv"  # a required one is still refused
+    q.write_text("\n".join(["t,SP,PV,OP"] + [",".join(r.split(",")[:2] + [""] +
+                                                   r.split(",")[3:]) for r in lines[1:]]))
+    with pytest.raises(InputError, match="column PV: gap"):
+        read_recording(q)
