@@ -167,12 +167,19 @@ def _nominal_model(rec: Recording, model: NominalModel | None,
 def _fit_aligned(cmp_prob: Problem, h, shifts: list[float]) -> Fit:
     """Fit ``h`` for each recording alignment ``shifts`` (s added to the dead time:
     bookkeeping, not physics) and keep the best training fit; dead time is itself the
-    shift for its own hypothesis."""
+    shift for its own hypothesis. The whole search runs at the first alignment (the
+    nominal model's); at the others, half a sample away, a local search from that
+    optimum."""
     ctx = cmp_prob.ctx
     best: Fit | None = None
+    first: Fit | None = None
     for shift in shifts if h.name != "dead_time" else (0.0,):
-        ctx_s = replace(ctx, theta=ctx.theta + shift)
-        ft = fit_hypothesis(cmp_prob.with_ctx(ctx_s), h)
+        prob_s = cmp_prob.with_ctx(replace(ctx, theta=ctx.theta + shift))
+        if first is None or not h.params:
+            ft = fit_hypothesis(prob_s, h)
+            first = first or ft
+        else:
+            ft = refit_from(prob_s, h, first.p)
         ft.extra = {**ft.extra, "timing_shift_s": shift}
         if best is None or ft.cost_train < best.cost_train * (1 - 1e-9):
             best = ft
