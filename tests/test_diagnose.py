@@ -643,3 +643,20 @@ def test_valve_searches_do_not_depend_on_op_units(stiction_rec):
             d.details["hammerstein"][f"{k}_interval"][0]
         assert abs(100.0 * e.details["hammerstein"][k] - d.details["hammerstein"][k]) \
             <= 0.05 * width, k
+
+
+@pytest.mark.parametrize(("theta", "n"), [(0.0, 500), (0.4, 500), (37.6, 500), (900.0, 500)])
+def test_fopdt_response_is_the_difference_equation_with_its_dead_time(theta, n):
+    """The replay's FOPDT shifts the whole-sample dead time instead of filtering with d
+    leading zero taps: the same output (to the bit here), including a dead time longer
+    than the record (all zeros); columns are filtered independently."""
+    from stictionbench.diagnosis.openloop import fopdt_coefficients, fopdt_response
+
+    rng = np.random.default_rng(3)
+    u = np.cumsum(rng.standard_normal((n, 2)), axis=0)
+    b, a = fopdt_coefficients(1.0, 12.0, theta)
+    expected = lfilter(b, a, u - u[0], axis=0)
+    np.testing.assert_array_equal(fopdt_response(u, 1.0, 12.0, theta), expected)
+    np.testing.assert_array_equal(fopdt_response(u[:, 1], 1.0, 12.0, theta), expected[:, 1])
+    if theta >= n:
+        assert not fopdt_response(u, 1.0, 12.0, theta).any()
