@@ -119,6 +119,8 @@ def test_compare_refuses_unlabelled_folder(tmp_path, capsys):
     assert main(["compare", str(tmp_path / "d"), "--out", str(tmp_path / "o")]) == 2
     assert "labels.csv" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+    assert main(["compare", str(tmp_path / "typo"), "--out", str(tmp_path / "o")]) == 2
+    assert "typo: no such directory" in capsys.readouterr().err
 
 
 def test_hammerstein_methods_fit_each_window_afresh():

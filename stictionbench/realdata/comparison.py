@@ -36,6 +36,8 @@ def run_folder(directory: str | Path, jobs: int = 2) -> tuple[list[dict[str, Any
 
     d = Path(directory)
     labels = d / "labels.csv"
+    if not d.is_dir():
+        raise InputError(f"{d}: no such directory")
     if not labels.is_file():
         raise InputError(f"{d}: no labels.csv (compare needs labelled loops)")
     recs, _ = load_csv_dir(d, labels=str(labels), warn=False)
