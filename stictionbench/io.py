@@ -172,13 +172,16 @@ def _read_columns(path: str | os.PathLike[str]) -> tuple[str, dict[str, Any], in
     raise InputError(f"{p}: unknown format {suffix!r}; use .csv or .parquet")
 
 
-def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
+def _csv_frame(p: Path, nrows: int | None = None) -> tuple[pd.DataFrame, str]:
+    """A CSV file as text cells (``nrows`` data rows; all when None), its delimiter
+    sniffed from the header line (:func:`_delimiter`), a byte-order mark dropped and the
+    column names stripped; ``(frame, delimiter)``."""
     head = p.read_bytes()[:4096]
     if b"\x00" in head:
         raise InputError(f"{p}: binary data, not a CSV text file")
     sep = _delimiter(head)
     try:
-        frame = pd.read_csv(p, sep=sep, dtype=str, keep_default_na=False,
+        frame = pd.read_csv(p, sep=sep, dtype=str, keep_default_na=False, nrows=nrows,
                             skipinitialspace=True, encoding="utf-8-sig")
     except UnicodeDecodeError:
         raise InputError(f"{p}: not UTF-8 text, not a CSV file") from None
@@ -187,6 +190,11 @@ def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
     except pd.errors.ParserError as exc:
         raise InputError(f"{p}: not a valid CSV file ({str(exc).splitlines()[0]})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
+    return frame, sep
+
+
+def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
+    frame, sep = _csv_frame(p)
     if sep != ",":
         # a CSV written with ';' or a tab is usually one with a decimal comma (the
         # spreadsheet export of a European locale): "1,5" is read as 1.5
@@ -196,16 +204,13 @@ def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
 
 
 def csv_columns(path: str | os.PathLike[str]) -> list[str] | None:
-    """The header of a CSV file as :func:`read_recording` reads it (delimiter sniffed,
+    """The header of a CSV file as :func:`read_recording` reads it (:func:`_csv_frame`,
     names made canonical by :func:`_canonical_columns`), or None when it cannot be read
     as text or is ambiguous (:func:`read_recording` then gives the precise message)."""
-    p = Path(path)
     try:
-        head = p.read_bytes()[:4096]
-        frame = pd.read_csv(p, sep=_delimiter(head), nrows=0, encoding="utf-8-sig")
-        frame.columns = [str(c).strip() for c in frame.columns]
-        return [str(c) for c in _canonical_columns(frame, str(p)).columns]
-    except Exception:  # noqa: BLE001 - any unreadable header: let read_recording say why
+        frame, _ = _csv_frame(Path(path), nrows=0)
+        return [str(c) for c in _canonical_columns(frame, str(path)).columns]
+    except (InputError, OSError, ValueError):
         return None
 
 

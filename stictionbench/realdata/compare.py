@@ -63,7 +63,8 @@ TYPE_WORDS = {"flow": "F", "level": "L", "pressure": "P", "temperature": "T",
 #: an ISA-5.1 controller tag in a loop's name: the measured variable's letter(s) (PD
 #: differential pressure, F flow, L level, P pressure, T temperature, A analysis), then
 #: I (indicating) and/or R (recording), then C (controller), then the loop number
-TAG = re.compile(r"(?<![A-Z])(PD|F|L|P|T|A)(?:I|R|IR|RI)?C(?=[-_.]?\d)")
+TAG_LETTERS = r"(PD|F|L|P|T|A)(?:I|R|IR|RI)?C"
+TAG = re.compile(rf"(?<![A-Z]){TAG_LETTERS}(?=[-_.]?\d)")
 
 
 def tag_type(name: str) -> str:
@@ -90,8 +91,8 @@ def _type_code(given: str) -> str:
     code = given.upper()
     if code in TYPE_WORDS.values():
         return code
-    from_tag = tag_type(code + "-0")
-    return from_tag if from_tag != "?" else code
+    letters = re.fullmatch(TAG_LETTERS, code)
+    return letters.group(1) if letters else code
 
 
 def loop_type(rec: Recording) -> str:
