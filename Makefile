@@ -45,6 +45,7 @@ bench: venv
 # compression), and the verdicts against the way a recording is written down (about 20 minutes)
 DATA ?= ../shared/data
 real: venv
+	$(BIN)/python experiments/bicoherence_power.py
 	$(BIN)/stictionbench compare $(DATA)/isdb $(DATA)/plant --out reports/real --consensus conf/consensus/default.yaml
 	$(BIN)/stictionbench batch $(DATA)/isdb --labels $(DATA)/isdb/labels.csv --diagnose flagged --json reports/real/isdb/batch.json --report reports/real/isdb
 	$(BIN)/stictionbench batch $(DATA)/plant --labels $(DATA)/plant/labels.csv --diagnose flagged --json reports/real/plant/batch.json --report reports/real/plant

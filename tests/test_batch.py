@@ -180,18 +180,20 @@ def test_every_method_is_blind_to_how_the_loop_is_written_down(loops, how):
 def test_a_tie_of_the_deciding_methods_is_noted(loops):
     # the batch entry says when its verdict rests on the tie rule: two methods that
     # disagree on the same loop vote alone (the failure mode of reports/real/flow_loops.md)
+    # (the tightly tuned loop: the area ratio reads its cycle as stiction, He et al.'s
+    # curve fit as a sine)
+    from stictionbench.realdata.compare import FAST
     from stictionbench.realdata.consensus import Consensus
     from stictionbench.realdata.verdict import judge
 
-    rec = sb.Recording.from_arrays(loops["sticky"].t, loops["sticky"].PV, loops["sticky"].OP,
-                                   SP=loops["sticky"].SP)
-    calls = judge(rec, "sticky", Consensus(("horch", "choudhury", "he", "area_ratio")),
-                  diagnose="none")["methods"]
+    rec = sb.Recording.from_arrays(loops["tight"].t, loops["tight"].PV, loops["tight"].OP,
+                                   SP=loops["tight"].SP)
+    calls = judge(rec, "tight", Consensus(FAST), diagnose="none")["methods"]
     yes = next(m for m, c in calls.items() if c["verdict"] == "stiction")
     no = next(m for m, c in calls.items() if c["verdict"] == "no_stiction")
-    tie = judge(rec, "sticky", Consensus((yes, no), 0.5, 1), diagnose="none")
+    tie = judge(rec, "tight", Consensus((yes, no), 0.5, 1), diagnose="none")
     assert (tie["verdict"], tie["confidence"]) == ("stiction", 0.5)
     assert any(n.startswith("a tie: 1 of 2 deciding methods") for n in tie["notes"])
-    agreed = judge(rec, "sticky", Consensus((yes,), 0.5, 1), diagnose="none")
+    agreed = judge(rec, "tight", Consensus((yes,), 0.5, 1), diagnose="none")
     assert agreed["confidence"] == 1.0
     assert not any(n.startswith("a tie") for n in agreed["notes"])
