@@ -74,7 +74,7 @@ SEED0 = 500
 ASYMMETRY = (0.1, 0.2, 0.4)
 
 
-def test_row(x: np.ndarray, op: np.ndarray) -> dict:
+def bicoherence_row(x: np.ndarray, op: np.ndarray) -> dict:
     """The bicoherence test on ``x`` under both readings of NGI, and the record's
     oscillation and skewness."""
     n = x.size
@@ -105,10 +105,10 @@ def run_one(k: int, seed: int) -> list[dict]:
                       disturbance="load", disturbance__load_std=0.5, **kw)
     pv, op = np.asarray(rec.PV, float), np.asarray(rec.OP, float)
     base = {"loop": what, "sticky": "kano" in what, "seed": seed}
-    rows = [base | {"asymmetry": 0.0} | test_row(pv[-n:], op[-n:]) for n in LENGTHS]
+    rows = [base | {"asymmetry": 0.0} | bicoherence_row(pv[-n:], op[-n:]) for n in LENGTHS]
     x = pv[-CAP:]
     z = (x - x.mean()) / x.std()
-    rows += [base | {"asymmetry": b} | test_row(x + b * x.std() * (z * z - 1), op[-CAP:])
+    rows += [base | {"asymmetry": b} | bicoherence_row(x + b * x.std() * (z * z - 1), op[-CAP:])
              for b in ASYMMETRY]
     return rows
 
