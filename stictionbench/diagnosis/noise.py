@@ -52,9 +52,7 @@ class NoiseModel:
         b = self.inverse()
         if b.size == 1:
             return x * b[0]
-        if np.ndim(x) == 1:
-            return np.convolve(x, b)[: len(x)]
-        return lfilter(b, [1.0], x, axis=0)
+        return causal_fir(b, x)
 
     def kstep(self, x: np.ndarray, k: int) -> np.ndarray:
         """``k``-step-ahead prediction errors of ``x`` under this noise model:
@@ -66,12 +64,26 @@ class NoiseModel:
         imp = np.zeros(k)
         imp[0] = 1.0
         f = lfilter([1.0], self.inverse(), imp)
-        return lfilter(f, [1.0], self.whiten(x), axis=0)
+        return causal_fir(f, self.whiten(x))
 
     def to_dict(self) -> dict[str, Any]:
         return {"family": "ARI" if self.integrated else "AR", "ar_order": self.order,
                 "integrated": bool(self.integrated), "ar": [float(a) for a in self.ar[1:]],
                 "innovation_variance": float(self.sigma2)}
+
+
+def causal_fir(b: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``lfilter(b, [1], x, axis=0)`` from rest, column by column with ``np.convolve``
+    (what ``lfilter`` does for an FIR filter, without its per-call ``apply_along_axis``
+    overhead, which dominated the whitening of small regressor matrices)."""
+    x = np.asarray(x, dtype=float)
+    n = x.shape[0]
+    if x.ndim == 1:
+        return np.convolve(x, b)[:n]
+    out = np.empty(x.shape)
+    for j in range(x.shape[1]):
+        out[:, j] = np.convolve(x[:, j], b)[:n]
+    return out
 
 
 WHITE = NoiseModel(np.ones(1), False, math.nan, math.nan)
