@@ -249,6 +249,32 @@ def test_noise_model_recovers_ar_and_integration():
     assert fit_noise_model(walk).integrated
 
 
+def test_whitening_is_lfilters_fir_exactly():
+    rng = np.random.default_rng(3)
+    h = fit_noise_model(lfilter([1.0], [1.0, -1.2, 0.5], rng.normal(size=3000)))
+    b = h.inverse()
+    for x in (rng.normal(size=3000), rng.normal(size=(3000, 3))):
+        assert np.array_equal(h.whiten(x), lfilter(b, [1.0], x, axis=0))
+
+
+def test_repeated_evaluations_are_remembered_per_problem(deadband_stages):
+    cmp = deadband_stages[0]
+    prob, h = cmp.prob, HYPOTHESES["sensor_lag"]
+    p = np.array([7.0])
+    first = prob.evaluate(h, p)
+    again = prob.evaluate(h, p.copy())
+    assert again[1] is first[1] and again[0] == first[0]      # served from the memo
+    assert not first[1].flags.writeable and not first[2].flags.writeable
+    # another context (a slower nominal process) or another noise model is another
+    # problem: never answered from this one's memo
+    slower = prob.with_ctx(replace(prob.ctx, tau=3 * prob.ctx.tau))
+    other = slower.evaluate(h, p)
+    assert other[0] != first[0] and other[1] is not first[1]
+    white = fit_noise_model(prob.y[prob.train])
+    assert prob.with_noise(white).evaluate(h, p)[0] != first[0]
+    assert prob.evaluate(h, np.array([7.5]))[0] != first[0]
+
+
 def test_kstep_prediction_errors():
     rng = np.random.default_rng(1)
     e = rng.normal(size=20000)
