@@ -117,7 +117,8 @@ def _truth(c: Case, rng: np.random.Generator) -> dict:
     return {}
 
 
-def _sim_overrides(c: Case, controller_s: float | None = None) -> list[str]:
+def _sim_overrides(c: Case, controller_s: float | None = None,
+                   characteristic: str = "equal_percentage") -> list[str]:
     rate = controller_s or (0.2 if c.family == "sim_physical" else 0.5)
     ov = {"process.gain": c.K, "process.time_constant": c.tau, "process.dead_time": c.theta,
           "controller.kc": c.kc, "controller.ti": c.ti, "controller.sample_time": rate,
@@ -145,7 +146,7 @@ def _sim_overrides(c: Case, controller_s: float | None = None) -> list[str]:
     elif c.cls == "dead_time":
         ov["process.dead_time"] = tr["dead_time"]
     elif c.cls == "valve_characteristic":
-        ov.update({"valve.characteristic": "equal_percentage",
+        ov.update({"valve.characteristic": characteristic,
                    "valve.rangeability": tr["rangeability"]})
     elif c.cls == "oscillatory_disturbance":
         ov.update({"disturbance.amplitude": tr["amplitude"], "disturbance.period": tr["period"]})
@@ -155,9 +156,10 @@ def _sim_overrides(c: Case, controller_s: float | None = None) -> list[str]:
     return out
 
 
-def _simulate_family(c: Case, controller_s: float | None = None) -> dict[str, np.ndarray]:
+def _simulate_family(c: Case, controller_s: float | None = None,
+                     characteristic: str = "equal_percentage") -> dict[str, np.ndarray]:
     sim_seed = 10_000 * FAMILIES.index(c.family) + 1000 * c.level + c.seed
-    ov = _sim_overrides(c, controller_s)
+    ov = _sim_overrides(c, controller_s, characteristic)
     if c.cls == "saturation":
         base = simulate("linear", duration=DURATION, seed=sim_seed, sample_time=1.0,
                         overrides=ov)
@@ -267,13 +269,18 @@ def _lsim_family(c: Case) -> dict[str, np.ndarray]:
 
 
 def make_recording(family: str, cls: str, level: int, seed: int,
-                   controller_s: float | None = None) -> tuple[Case, dict[str, np.ndarray]]:
+                   controller_s: float | None = None,
+                   characteristic: str = "equal_percentage"
+                   ) -> tuple[Case, dict[str, np.ndarray]]:
     """Draw a case of ``family`` and simulate it: ``(case, {t, SP, PV, OP})``.
-    ``controller_s`` replaces the family's controller period (the two ``sim_`` families
-    only; ``lsim_choudhury`` steps its whole loop every 0.5 s)."""
+    ``controller_s`` replaces the family's controller period and ``characteristic`` the
+    ``valve_characteristic`` class's installed curve (``quick_opening``: concave; the
+    two ``sim_`` families only; ``lsim_choudhury`` steps its whole loop every 0.5 s
+    with its own equal-percentage valve)."""
     c = draw(family, cls, level, seed)
     if family == "lsim_choudhury":
-        if controller_s is not None:
-            raise ValueError("lsim_choudhury has no separate controller period")
+        if controller_s is not None or characteristic != "equal_percentage":
+            raise ValueError("lsim_choudhury has no separate controller period and its "
+                             "own valve characteristic")
         return c, _lsim_family(c)
-    return c, _simulate_family(c, controller_s)
+    return c, _simulate_family(c, controller_s, characteristic)

@@ -88,6 +88,25 @@ def test_other_physics(cls, ov, key, true, rel):
     assert d.parameters[key] == pytest.approx(true, rel=rel)
 
 
+def test_valve_characteristic_either_way_the_valve_opens():
+    # an equal-percentage valve (R = 30); the same loop recorded with the controller's
+    # signal to an air-to-close valve: OP' = 100 − OP and the gains' signs flipped
+    rec = _rec(valve__characteristic="equal_percentage", valve__rangeability=30.0,
+               sensor__time_constant=0.0)
+    rev = replace(rec, OP=100.0 - np.asarray(rec.OP, float))
+    flipped = replace(NOM, gain=-NOM.gain, kc=-NOM.kc)
+    fitted = []
+    for r, m, opening in ((rec, NOM, "with_op"), (rev, flipped, "against_op")):
+        d = diagnose(r, m)
+        assert d.missing_physics == "valve_characteristic"
+        assert d.details["valve_opening"] == opening
+        # OP spans 5 % here: R is loose, but its interval holds the truth
+        lo, hi = d.uncertainty["rangeability"]
+        assert lo <= 30.0 <= hi and lo <= d.parameters["rangeability"] <= hi
+        fitted.append(d.parameters["rangeability"])
+    assert fitted[1] == pytest.approx(fitted[0], rel=1e-6)
+
+
 def test_slow_load_is_not_physics():
     rec = _rec(disturbance="load", disturbance__load_std=2.0,
                disturbance__load_time_constant=600.0, sensor__time_constant=0.0)

@@ -271,9 +271,10 @@ def _local_grid(h: Hypothesis, p: np.ndarray, ctx: Context) -> list[np.ndarray]:
     if h.name == "dead_time":
         for d in np.linspace(-3.0, 3.0, 13):  # sample times
             out.append(_from_free(h, ctx, p / ctx.Ts + d))
-    elif p.size == 1:
+    elif len(h.params) == 1:
+        # one continuous parameter (and any discrete settings after it, held)
         for f in np.geomspace(0.5, 2.0, 15):
-            out.append(_from_free(h, ctx, np.log(p * f)))
+            out.append(_from_free(h, ctx, np.log(p[:1] * f), p[1:]))
     elif h.name == "stiction":
         lo = [b[0] for b in h.bounds(ctx)]
         hi = [b[1] for b in h.bounds(ctx)]
@@ -293,7 +294,10 @@ def profile_intervals(h: Hypothesis, evals: list[tuple[np.ndarray, float]], c_mi
     thr = c_min * math.exp(chi2.ppf(level, 1) / max(n_eff, 1.0))
     P = np.array([e[0] for e in evals])
     C = np.array([e[1] for e in evals])
-    inside = C <= thr
+    k = len(h.params)
+    # at the best point's discrete settings (a stop rule, a valve's opening direction):
+    # the profile of a continuous parameter, not a union over other model structures
+    inside = (C <= thr) & np.all(P[:, k:] == P[int(np.argmin(C)), k:], axis=1)
     out = {}
     for i, name in enumerate(h.params):
         v = P[inside, i]

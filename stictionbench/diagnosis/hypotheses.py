@@ -8,7 +8,8 @@ is never blamed on physics. The nonlinear parameters are what the fitter searche
 
 Vocabulary (``missing_physics``): ``none``, ``stiction`` (S, J in % of OP span),
 ``deadband`` (deadband, %), ``sensor_lag`` (time_constant, s), ``dead_time`` (dead_time,
-s, the total), ``valve_characteristic`` (rangeability), ``saturation`` (op_low/op_high,
+s, the total), ``valve_characteristic`` (rangeability; the valve opening with or against
+OP), ``saturation`` (op_low/op_high,
 %), ``oscillatory_disturbance`` (period s, amplitude).
 """
 
@@ -263,19 +264,40 @@ class DeadTime(Hypothesis):
 
 
 class ValveCharacteristic(Hypothesis):
-    """Installed equal-percentage characteristic with ``rangeability`` R."""
+    """Installed equal-percentage characteristic with ``rangeability`` R, the valve
+    opening with OP or against it.
+
+    A second, discrete entry of the parameter vector says which way the valve opens:
+    with OP (air-to-open, or OP recorded as % open), or against it (air-to-close with
+    the controller's output signal recorded: opening = 100 % − OP). With the gain's sign
+    free, the second also describes a characteristic that is concave in OP — the
+    installed curve of a linear valve whose pressure drop falls as it opens (little
+    valve authority; Emerson, *Control Valve Handbook*, 5th ed. 2017, on installed
+    characteristics) — so the hypothesis covers curvature
+    of either sign. Both branches reach the linear valve as ``R → 1`` (``R^(x−1)`` and
+    ``R^(−x)`` tend to straight lines of opposite slope, the gain absorbing it): the pair
+    is one signed curvature parameter through the null, so the likelihood-ratio test
+    keeps one degree of freedom (now two-sided; the one-branch test was one-sided, its
+    null a 50:50 mixture of χ²₀ and χ²₁).
+    """
 
     name = "valve_characteristic"
     params = ("rangeability",)
+    OPENING = ("with_op", "against_op")
 
     def grid(self, ctx):
-        return [np.array([r]) for r in np.geomspace(1.5, 500.0, 24)]
+        return [np.array([r, code]) for code in (0, 1) for r in np.geomspace(1.5, 500.0, 24)]
 
     def bounds(self, ctx):
         return [(1.05, 2000.0)]
 
     def valve_output(self, ctx, p):
-        return equal_percentage(ctx.op, float(p[0]), ctx.op_range or (0.0, 100.0))
+        lo, hi = ctx.op_range or (0.0, 100.0)
+        op = ctx.op if len(p) < 2 or int(round(p[1])) == 0 else (lo + hi) - ctx.op
+        return equal_percentage(op, float(p[0]), (lo, hi))
+
+    def extra(self, p):
+        return {"opening": self.OPENING[0 if len(p) < 2 else int(round(p[1]))]}
 
 
 class Saturation(Hypothesis):

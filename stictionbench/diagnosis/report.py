@@ -21,8 +21,8 @@ PLAIN = {
                 "after it has reversed by the deadband",
     "sensor_lag": "an extra lag in the measurement (transmitter damping or a slow sensor)",
     "dead_time": "a different transport delay than the model assumes",
-    "valve_characteristic": "a non-linear (equal-percentage) valve characteristic: the "
-                            "loop gain changes with valve opening",
+    "valve_characteristic": "a non-linear (equal-percentage) installed valve "
+                            "characteristic: the loop gain changes with valve opening",
     "saturation": "valve travel limits the controller does not know about",
     "oscillatory_disturbance": "an external oscillating disturbance entering the process",
 }
@@ -151,6 +151,11 @@ def summary_markdown(d: Diagnosis) -> str:
                                             if k in d.uncertainty else "")
                        for k, v in d.parameters.items())
         lines += [f"- Fitted: {ps}.", ""]
+    if d.details.get("valve_opening") == "against_op":
+        lines += ["- The valve opens against OP (opening = 100 % − OP: an air-to-close "
+                  "valve with its signal recorded), or, with the gain's sign, a "
+                  "characteristic concave in OP (a linear valve with little pressure-drop "
+                  "authority).", ""]
     f = d.fit
     imp = 1 - f["improved"] / f["nominal"] if f["nominal"] else 0.0
     lines += [
