@@ -482,7 +482,7 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
         "seconds": None,
     }
     if pick == "valve_characteristic":
-        details["valve_opening"] = chosen.extra.get("opening", "with_op")
+        details["valve_opening"] = chosen.extra["opening"]
     if cmp.ctx.op_range is None:
         details["not_tested"] = {"valve_characteristic": (
             "OP is neither in per cent nor a fraction of the valve's travel (mean-removed, "

@@ -293,11 +293,11 @@ class ValveCharacteristic(Hypothesis):
 
     def valve_output(self, ctx, p):
         lo, hi = ctx.op_range or (0.0, 100.0)
-        op = ctx.op if len(p) < 2 or int(round(p[1])) == 0 else (lo + hi) - ctx.op
+        op = ctx.op if int(round(p[1])) == 0 else (lo + hi) - ctx.op
         return equal_percentage(op, float(p[0]), (lo, hi))
 
     def extra(self, p):
-        return {"opening": self.OPENING[0 if len(p) < 2 else int(round(p[1]))]}
+        return {"opening": self.OPENING[int(round(p[1]))]}
 
 
 class Saturation(Hypothesis):
