@@ -62,13 +62,14 @@ real: venv
 
 # concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out,
 # with the nominal model, model-free, with output-error fits for comparison, and the
-# verdicts' stability with the records trimmed (about 15 minutes on 2 cores)
+# verdicts' stability with the records trimmed (about 20 minutes on 2 cores)
 concealed: venv
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --model-free
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --output-error
 	$(BIN)/python experiments/holdout_family.py --seeds 4 --none-seeds 8 --jobs 2
 	$(BIN)/python experiments/valve_curvature.py --seeds 4 --jobs 2
+	$(BIN)/python experiments/disturbance_band.py --seeds 12 --none-seeds 12 --jobs 2
 	$(BIN)/python experiments/controller_rate_artefact.py
 	$(BIN)/python experiments/stiction_controller_rate.py
 	$(BIN)/python experiments/verdict_stability.py --trim 7 --jobs 2

@@ -88,6 +88,25 @@ def test_other_physics(cls, ov, key, true, rel):
     assert d.parameters[key] == pytest.approx(true, rel=rel)
 
 
+def test_short_disturbance_in_a_tight_loop_is_named():
+    # τ = 40 s, tightly tuned: a 15 s line (3.75 closed-loop time constants of the PI's
+    # λ ≈ 4 s) lies above the comparison band cut from τ alone (0.02 Hz); the set-point
+    # responses hide it in PV's spectrum, the nominal residual shows it, and the band is
+    # widened to keep it (answered `none` or `sensor_lag` before)
+    m = NominalModel(1.0, 40.0, 2.0, 5.0, 20.0, 1.0)
+    plant = dict(process__gain=1.0, process__time_constant=40.0, process__dead_time=2.0,
+                 controller__kc=5.0, controller__ti=20.0, sensor__time_constant=0.0)
+    d = diagnose(_rec(**plant, disturbance="sinusoidal", disturbance__amplitude=1.0,
+                      disturbance__period=15.0), m)
+    assert d.missing_physics == "oscillatory_disturbance"
+    assert d.parameters["period"] == pytest.approx(15.0, rel=0.01)
+    assert d.details["lowpass_hz"] > 3.0 / 15.0
+    # the same loop without the line: no line in the residual, the band cut from τ
+    d0 = diagnose(_rec(**plant), m)
+    assert d0.missing_physics == "none"
+    assert d0.details["lowpass_hz"] == pytest.approx(5.0 / (2 * math.pi * 40.0))
+
+
 def test_valve_characteristic_either_way_the_valve_opens():
     # an equal-percentage valve (R = 30); the same loop recorded with the controller's
     # signal to an air-to-close valve: OP' = 100 − OP and the gains' signs flipped

@@ -2,8 +2,11 @@
 
 1. :func:`compare` — replay the nominal model open loop from the recorded OP and form the
    residual PV − PV̂. Slow unmeasured loads are removed from PV and from every model
-   output by the same zero-phase high-pass (cut-off ``0.3/(2π(τ+θ))``); after a burn-in
-   of θ + 3τ the record is cut into five blocks (1, 3, 5 train; 2, 4 validate).
+   output by the same zero-phase high-pass (cut-off ``0.3/(2π(τ+θ))``) and noise above
+   the band by a low-pass (:func:`.hypotheses.lowpass_corner`: five process corner
+   frequencies, widened to keep the harmonics of a clear oscillation in PV or in the
+   nominal residual); after a burn-in of θ + 3τ the record is cut into five blocks (1,
+   3, 5 train; 2, 4 validate).
 2. :func:`locate` — windows in time where the residual's rolling RMS exceeds twice the
    white-noise floor; the band in frequency where its spectrum exceeds four times the
    floor; its coherence with OP there.
@@ -219,8 +222,13 @@ def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: flo
     # controller faster than the historian) moves the apparent dead time by up to a
     # sample: the nominal model is aligned on a quarter-sample grid within ±1 sample,
     # the hypotheses within half a sample of that alignment
-    nominal = _fit_aligned(prob, Nominal(), [s * Ts for s in np.arange(-1.0, 1.01, 0.25)
-                                             if theta + s * Ts >= 0])
+    align = [s * Ts for s in np.arange(-1.0, 1.01, 0.25) if theta + s * Ts >= 0]
+    nominal = _fit_aligned(prob, Nominal(), align)
+    f_wide = _band_for_residual_line(ctx, nominal, burn, lp_factor)
+    if f_wide is not None:
+        ctx = replace(ctx, f_lp=f_wide)
+        prob = Problem(ctx, f_hp, prob.train, prob.val, f_wide)
+        nominal = _fit_aligned(prob, Nominal(), align)
     s0 = nominal.extra["timing_shift_s"]
     shifts = [s for s in (s0, s0 - 0.5 * Ts, s0 + 0.5 * Ts) if theta + s >= 0]
     val_blocks = [[float(rec.t[b[0]]), float(rec.t[b[-1]])] for b in blocks[1::2]]
@@ -228,13 +236,36 @@ def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: flo
                       nominal, pem)
 
 
+def _band_for_residual_line(ctx: Context, nominal: Fit, burn: int,
+                            lp_factor: float) -> float | None:
+    """The comparison band's low-pass corner widened for a clear line in what the
+    nominal model leaves unexplained (:func:`.locate.oscillation_frequency` on its
+    residual after the burn-in), or ``None`` when there is none or the band already keeps
+    its harmonics. The band keeps a clear PV oscillation's harmonics
+    (:func:`.hypotheses.lowpass_corner`); set-point responses and the OP-driven part can
+    hide a line in PV itself, and a band cut from τ alone drops a disturbance of a few
+    closed-loop time constants in a tightly tuned slow loop (the low end of the
+    disturbance's period range follows the band). ``experiments/disturbance_band.py``
+    runs the diagnosis with and without this rule."""
+    f_res = oscillation_frequency(_nominal_residual(ctx, nominal)[burn:], ctx.Ts)
+    if f_res is None:
+        return None
+    f_lp = lowpass_corner(ctx.Ts, ctx.tau, lp_factor, f_res)
+    return f_lp if f_lp > (ctx.f_lp or 0.0) else None
+
+
+def _nominal_residual(ctx: Context, nominal: Fit) -> np.ndarray:
+    """PV minus the nominal model's replay of the recorded OP, high-passed only."""
+    ctx0 = replace(ctx, theta=ctx.theta + nominal.extra.get("timing_shift_s", 0.0))
+    X0 = highpass(Nominal().regressors(ctx0, np.zeros(0)), ctx.Ts, ctx.f_hp)
+    return highpass(ctx.pv, ctx.Ts, ctx.f_hp) - X0 @ nominal.beta
+
+
 def locate(cmp: Comparison) -> Location:
     """Stage 2: the nominal residual over the whole record after the burn-in, high-passed
     only (the white measurement noise sets the floor it is compared with)."""
     ctx, burn, Ts = cmp.ctx, cmp.burn, cmp.ctx.Ts
-    ctx0 = replace(ctx, theta=ctx.theta + cmp.nominal.extra.get("timing_shift_s", 0.0))
-    X0 = highpass(Nominal().regressors(ctx0, np.zeros(0)), Ts, ctx.f_hp)
-    r = highpass(ctx.pv, Ts, ctx.f_hp) - X0 @ cmp.nominal.beta
+    r = _nominal_residual(ctx, cmp.nominal)
     sigma = noise_floor(r[burn:])
     w = max(10, int(round((ctx.tau + ctx.theta) / Ts)))
     windows = mismatch_windows(cmp.rec.t, r, sigma, w, start=burn)
