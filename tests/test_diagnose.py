@@ -4,6 +4,7 @@ evidence and the noise models."""
 
 from __future__ import annotations
 
+import importlib
 import json
 import math
 from dataclasses import replace
@@ -105,6 +106,21 @@ def test_short_disturbance_in_a_tight_loop_is_named():
     d0 = diagnose(_rec(**plant), m)
     assert d0.missing_physics == "none"
     assert d0.details["lowpass_hz"] == pytest.approx(5.0 / (2 * math.pi * 40.0))
+
+
+def test_residual_line_band_only_with_a_given_model(monkeypatch):
+    # an identified FOPDT's residual is not a trusted model's: without a model the band
+    # stays the one cut from τ and PV (ISDB CHEM23's stiction became a dead band)
+    dmod = importlib.import_module("stictionbench.diagnosis.diagnose")
+    calls = []
+    monkeypatch.setattr(dmod, "_band_for_residual_line",
+                        lambda *a: calls.append(a) or None)
+    rec = _rec(disturbance="sinusoidal", disturbance__amplitude=1.0,
+               disturbance__period=90.0)
+    dmod.compare(rec, None)
+    assert calls == []
+    dmod.compare(rec, NOM)
+    assert len(calls) == 1
 
 
 def test_valve_characteristic_either_way_the_valve_opens():

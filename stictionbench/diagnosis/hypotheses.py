@@ -29,9 +29,9 @@ from .openloop import (
     stiction_valve,
 )
 
-#: harmonics of a clear oscillation (in PV or in the nominal residual) kept in the
-#: comparison band (the third carries the square or triangular shape of a stick-slip
-#: cycle)
+#: harmonics of a clear oscillation (in PV or, with a given model, in the nominal
+#: residual) kept in the comparison band (the third carries the square or triangular
+#: shape of a stick-slip cycle)
 HARMONICS_KEPT = 3.5
 
 
@@ -40,12 +40,12 @@ def lowpass_corner(Ts: float, tau: float, lp_factor: float = 5.0,
     """Low-pass corner (Hz) of the comparison band: above ``lp_factor`` corner frequencies
     of the process, PV content caused by OP is attenuated more than ``lp_factor``-fold and
     what is left is measurement noise; but never below :data:`HARMONICS_KEPT` times the
-    frequency ``f_osc`` of a clear oscillation in PV or in the nominal residual (the
-    shape of a limit cycle, what tells a stick-slip from a line: a τ identified from
-    closed-loop data through a sticking valve can be far too large, 207 s against the
-    true 10 s on the paper's stiction case over 20000 s, and the band then cut the limit
-    cycle itself; a line of a few closed-loop time constants in a tightly tuned slow
-    loop); at most ``0.4/Ts``.
+    frequency ``f_osc`` of a clear oscillation in PV or, with a given model, in the
+    nominal residual (the shape of a limit cycle, what tells a stick-slip from a line: a
+    τ identified from closed-loop data through a sticking valve can be far too large,
+    207 s against the true 10 s on the paper's stiction case over 20000 s, and the band
+    then cut the limit cycle itself; a line of a few closed-loop time constants in a
+    tightly tuned slow loop); at most ``0.4/Ts``.
 
     Examples
     --------
