@@ -153,8 +153,9 @@ def figure(df: pd.DataFrame, path: Path) -> None:
         ax.set_ylim(0, 1.05)
         ax.set_title(f"level {level}, four families (Wilson 95 %)", fontsize=9)
     axes[0].set_ylabel("named oscillatory_disturbance")
-    axes[1].legend(fontsize=8, loc="lower right")
-    fig.tight_layout()
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=8, loc="lower center", ncol=2, frameon=False)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
     with atomic_path(path) as p:
         fig.savefig(p, dpi=120, format="png")
     plt.close(fig)
