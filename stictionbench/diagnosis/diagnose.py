@@ -225,7 +225,7 @@ def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: flo
     align = [s * Ts for s in np.arange(-1.0, 1.01, 0.25) if theta + s * Ts >= 0]
     nominal = _fit_aligned(prob, Nominal(), align)
     f_wide = (_band_for_residual_line(ctx, nominal, burn, lp_factor)
-              if model.source == "given" else None)
+              if ctx.model_given else None)
     if f_wide is not None:
         ctx = replace(ctx, f_lp=f_wide)
         prob = Problem(ctx, f_hp, prob.train, prob.val, f_wide)
