@@ -414,6 +414,44 @@ def test_select_never_names_a_fit_on_a_search_bound():
     assert select(rows, None, alpha=0.01, min_improvement=0.05) == "oscillatory_disturbance"
 
 
+def test_dead_time_practical_significance_is_its_own_resolution():
+    # a dead time's least meaningful size is stated in its own unit (more than one sample
+    # from the nominal: at_bound); the 10 % NRMSE gate, which PV noise and a load shrink
+    # whatever the delay, does not apply to it — only an improvement at all
+    rows = [{"physics": "none", "p_value": 1.0, "improvement": 0.0, "raw_score": 0.0,
+             "parameters": {}},
+            {"physics": "dead_time", "p_value": 1e-3, "improvement": 0.03,
+             "raw_score": -10.0, "parameters": {"dead_time": 13.0}, "at_bound": False},
+            {"physics": "sensor_lag", "p_value": 1e-3, "improvement": 0.03,
+             "raw_score": -12.0, "parameters": {"time_constant": 3.0}}]
+    assert select(rows, None, alpha=0.05, min_improvement=0.1) == "dead_time"
+    assert select(rows, None, alpha=0.05, min_improvement=0.1,
+                  own_resolution=frozenset()) == "none"
+    rows[1]["improvement"] = -0.01
+    assert select(rows, None, alpha=0.05, min_improvement=0.1) == "none"
+    rows[1]["improvement"], rows[1]["at_bound"] = 0.03, True
+    assert select(rows, None, alpha=0.05, min_improvement=0.1) == "none"
+    rows[1]["at_bound"], rows[1]["p_value"] = False, 0.2
+    assert select(rows, None, alpha=0.05, min_improvement=0.1) == "none"
+
+
+def test_small_dead_time_mismatch_under_noise_and_load_is_named():
+    # 2 s more dead time than the model's 10 s, PV noise 0.6 and a random-walk load:
+    # the delay is found (p < 0.05, 11.9 s) but improves the validation NRMSE by about
+    # 5 %; the earlier rule (the 10 % gate on every hypothesis) answered `none`
+    kw = dict(sensor__noise_std=0.6, disturbance="load", disturbance__load_std=1.0, seed=5)
+    d = diagnose(_rec(process__dead_time=12.0, **kw), NOM)
+    assert d.missing_physics == "dead_time"
+    assert d.parameters["dead_time"] == pytest.approx(12.0, abs=0.5)
+    row = next(r for r in d.ranking if r["physics"] == "dead_time")
+    assert 0.0 < row["improvement"] < 0.1
+    earlier = select(d.ranking, d.tests.get("slip_jump_zero", {}).get("p_value"),
+                     alpha=0.05, min_improvement=0.1, own_resolution=frozenset())
+    assert earlier == "none"
+    # the same loop with the model's own dead time: no delay named
+    assert diagnose(_rec(process__dead_time=10.0, **kw), NOM).missing_physics == "none"
+
+
 def test_oscillation_period_on_its_range_end_is_flagged(deadband_stages):
     ctx = deadband_stages[0].ctx
     osc = HYPOTHESES["oscillatory_disturbance"]

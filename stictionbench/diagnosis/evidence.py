@@ -15,7 +15,9 @@ into its own, more flexible, noise model (Ljung, *System Identification*, 1999, 
   smaller p-value, Bonferroni-corrected, is the hypothesis's p-value. A hypothesis is
   *significant* when that p-value is below ``alpha``, its simulation NRMSE on the
   validation blocks improves by at least ``min_improvement`` and its fit is not on an end
-  of a search-limited range (``at_bound``: the oscillation period);
+  of a search-limited range (``at_bound``: the oscillation period); a hypothesis whose
+  ``at_bound`` is itself the data's resolution in its own unit (a dead time more than one
+  sample from the nominal) need only improve the NRMSE at all (:func:`passes`);
 - **the process re-identified** (no model given): a valve hypothesis must also beat the
   linear loop refitted under the same criterion (the Hammerstein identification's own
   likelihood-ratio test); its p-value is the larger of the two (an intersection–union
@@ -152,16 +154,14 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
                 # intersection–union test: significant only when both tests are
                 lr = {**lr, "p_value": max(lr["p_value"], ft.gate_p)}
             improvement = 1.0 - ft.nrmse_val / max(base.nrmse_val, 1e-300)
-        rows.append({"physics": name, "raw_score": var[name]["bic"],
-                     "p_value": lr["p_value"], "lr_statistic": lr["statistic"],
-                     "df": lr["df"], "p_one_step": lr["p_one_step"],
-                     "p_k_step": lr["p_k_step"], "p_gate": ft.gate_p,
-                     "improvement": improvement, "nrmse_validation": ft.nrmse_val,
-                     "innovation_variance": var[name]["validation"],
-                     "parameters": ft.params, "at_bound": ft.at_bound,
-                     "significant": bool(name != "none" and lr["p_value"] < alpha
-                                         and improvement >= min_improvement
-                                         and not ft.at_bound)})
+        row = {"physics": name, "raw_score": var[name]["bic"],
+               "p_value": lr["p_value"], "lr_statistic": lr["statistic"],
+               "df": lr["df"], "p_one_step": lr["p_one_step"],
+               "p_k_step": lr["p_k_step"], "p_gate": ft.gate_p,
+               "improvement": improvement, "nrmse_validation": ft.nrmse_val,
+               "innovation_variance": var[name]["validation"],
+               "parameters": ft.params, "at_bound": ft.at_bound}
+        rows.append({**row, "significant": passes(row, alpha, min_improvement)})
     tests: dict[str, Any] = {}
     if {"stiction", "deadband"} <= set(fits):
         tests["slip_jump_zero"] = _slip_jump_test(fits, var, train.size)
@@ -177,8 +177,28 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
 MIN_SLIP_FRACTION = 0.1
 
 
+#: hypotheses whose practical significance is a resolution in their own parameter
+#: (:attr:`.Hypothesis.own_resolution`): the dead time
+OWN_RESOLUTION = frozenset(n for n, h in HYPOTHESES.items() if h.own_resolution)
+
+
+def passes(row: dict[str, Any], alpha: float, min_improvement: float, *,
+           own_resolution: frozenset[str] = OWN_RESOLUTION) -> bool:
+    """Whether one hypothesis's row is significant: its p-value below ``alpha``, its fit
+    not on an end of a search-limited range (``at_bound``), and its validation NRMSE
+    improved by at least ``min_improvement`` — or, for a hypothesis in
+    ``own_resolution``, improved at all (its ``at_bound`` already withholds the effects
+    the data do not resolve: a dead time within one sample of the nominal)."""
+    if row["physics"] == "none" or row["p_value"] >= alpha or row.get("at_bound", False):
+        return False
+    if row["physics"] in own_resolution:
+        return row["improvement"] > 0.0
+    return row["improvement"] >= min_improvement
+
+
 def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: float,
-           min_improvement: float, min_slip_fraction: float = MIN_SLIP_FRACTION) -> str:
+           min_improvement: float, min_slip_fraction: float = MIN_SLIP_FRACTION,
+           own_resolution: frozenset[str] = OWN_RESOLUTION) -> str:
     """The decision rule alone, from each row's ``physics``, ``p_value`` (LR against the
     nominal model), ``improvement`` (validation NRMSE), ``at_bound`` (a fit on the end of
     a search-limited range, never named) and ``raw_score`` (BIC; or the
@@ -186,10 +206,10 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
     p-value of ``J = 0``: the significant hypothesis of lowest BIC; stiction and dead band
     (nested) by the slip-jump test when either is the pick (stiction when ``J = 0`` is
     rejected and the fitted ``J`` is at least ``min_slip_fraction`` of ``S``). Benchmarks
-    re-run it to set the thresholds on one generator family and test on another."""
-    sig = {r["physics"] for r in rows if r["physics"] != "none"
-           and r["p_value"] < alpha and r["improvement"] >= min_improvement
-           and not r.get("at_bound", False)}
+    re-run it to set the thresholds on one generator family and test on another;
+    ``own_resolution`` (:func:`passes`) is there for the ablation that names it empty."""
+    sig = {r["physics"] for r in rows
+           if passes(r, alpha, min_improvement, own_resolution=own_resolution)}
     pick = min((r for r in rows if r["physics"] in sig),
                key=lambda r: r.get("raw_score", r.get("score", 0.0)),
                default={"physics": "none"})["physics"]

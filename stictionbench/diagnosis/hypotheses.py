@@ -104,6 +104,12 @@ class Hypothesis:
     #: them located no optimum and is not named (the replication's lesson: a window edge
     #: is not an estimate)
     interior_only = False
+    #: :meth:`at_bound` already withholds the effects too small for the recording to
+    #: resolve, stated in the parameter's own unit (a dead time within one sample of the
+    #: nominal): practical significance is then that, and the validation NRMSE need only
+    #: improve, not by ``min_improvement`` — a gate in NRMSE, which PV noise and an
+    #: unmeasured load shrink whatever the size of the effect (:func:`.evidence.passes`)
+    own_resolution = False
 
     def grid(self, ctx: Context) -> list[np.ndarray]:
         return [np.zeros(0)]
@@ -245,6 +251,7 @@ class DeadTime(Hypothesis):
 
     name = "dead_time"
     params = ("dead_time",)
+    own_resolution = True
 
     def _hi(self, ctx):
         return max(3.0 * ctx.theta + 2.0 * ctx.tau, 20 * ctx.Ts)
