@@ -44,18 +44,16 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-import concealed_families as cf  # noqa: E402
-import holdout_family as hf  # noqa: E402
+import fresh_recordings as fresh  # noqa: E402
 
 from stictionbench.diagnosis import diagnose  # noqa: E402
 from stictionbench.diagnosis.evidence import ALPHA, MIN_IMPROVEMENT, select  # noqa: E402
 from stictionbench.io import atomic_path, write_text  # noqa: E402
-from stictionbench.rates import rate_text, wilson  # noqa: E402
-from stictionbench.recording import Recording  # noqa: E402
+from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
-FAMILIES = (*cf.FAMILIES, hf.FAMILY)
+FAMILIES = fresh.FAMILIES
 FIRST_EFFECT_SEED, FIRST_NONE_SEED = 16, 24
 #: effect-size bins of the families' draw (level 1 draws 0.4–1, level 2 0–0.5)
 EFFECT_BINS = ((0.0, 0.25), (0.25, 0.5), (0.4, 0.7), (0.7, 1.0))
@@ -69,7 +67,7 @@ def cases(seeds: int, none_seeds: int) -> list[tuple[str, str, int, int]]:
     out = []
     for fam in FAMILIES:
         for level in (1, 2):
-            for cls in cf.CLASSES:
+            for cls in fresh.CLASSES:
                 first, n = ((FIRST_NONE_SEED, none_seeds) if cls == "none"
                             else (FIRST_EFFECT_SEED, seeds))
                 out += [(fam, cls, level, first + s) for s in range(n)]
@@ -77,12 +75,7 @@ def cases(seeds: int, none_seeds: int) -> list[tuple[str, str, int, int]]:
 
 
 def one(family: str, cls: str, level: int, seed: int) -> dict:
-    if family == hf.FAMILY:
-        c, sig = hf.make_recording(cls, level, seed)
-    else:
-        c, sig = cf.make_recording(family, cls, level, seed)
-    m = cf.nominal_model(c)
-    rec = Recording.from_arrays(sig["t"], sig["PV"], sig["OP"], SP=sig["SP"])
+    c, m, rec = fresh.recording(family, cls, level, seed)
     d = diagnose(rec, m)
     slip = d.tests.get("slip_jump_zero", {}).get("p_value")
     earlier = select(d.ranking, slip, alpha=ALPHA, min_improvement=MIN_IMPROVEMENT,
@@ -129,19 +122,11 @@ def figure(df: pd.DataFrame, path: Path) -> None:
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     g0 = df[df["class"] == "dead_time"]
     x = np.arange(len(EFFECT_BINS))
-    for k, (label, colour) in enumerate((("shipped", "C0"), ("earlier", "C7"))):
-        rates, err = [], [[], []]
-        for lo, hi in EFFECT_BINS:
-            g = g0[(g0["effect"] >= lo) & (g0["effect"] < hi)
-                   & (g0["level"] == (2 if hi <= 0.5 else 1))]
-            n, hit = len(g), int((g[label] == "dead_time").sum())
-            r = hit / n if n else np.nan
-            w = wilson(hit, n) if n else (np.nan, np.nan)
-            rates.append(r)
-            err[0].append(r - w[0])
-            err[1].append(w[1] - r)
-        ax.bar(x + (k - 0.5) * 0.38, rates, 0.38, yerr=err, color=colour, capsize=3,
-               label=LABELS[label])
+    fresh.rate_bars(
+        ax, [g0[(g0["effect"] >= lo) & (g0["effect"] < hi)
+                & (g0["level"] == (2 if hi <= 0.5 else 1))] for lo, hi in EFFECT_BINS],
+        lambda g, col: int((g[col] == "dead_time").sum()),
+        [(k, c, LABELS[k]) for k, c in (("shipped", "C0"), ("earlier", "C7"))])
     ax.set_xticks(x, [f"L{2 if hi <= 0.5 else 1}: {lo:g}–{hi:g}" for lo, hi in EFFECT_BINS])
     ax.set_xlabel("effect-size draw (extra delay θ·(0.3 + 1.2·e) + 1 s)")
     ax.set_ylabel("named dead_time")
@@ -162,12 +147,7 @@ def main(argv=None) -> int:
     ap.add_argument("--none-seeds", type=int, default=12)
     ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args(argv)
-    from joblib import Parallel, delayed
-    from tqdm import tqdm
-
-    todo = cases(args.seeds, args.none_seeds)
-    gen = Parallel(n_jobs=args.jobs, return_as="generator")(delayed(one)(*c) for c in todo)
-    df = pd.DataFrame(list(tqdm(gen, total=len(todo), desc="diagnose", unit="rec")))
+    df = fresh.run(one, cases(args.seeds, args.none_seeds), args.jobs)
     tab, fam = summary(df)
     OUT.mkdir(parents=True, exist_ok=True)
     with atomic_path(OUT / "dead_time_gate.csv") as p:

@@ -42,20 +42,18 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-import concealed_families as cf  # noqa: E402
-import holdout_family as hf  # noqa: E402
+import fresh_recordings as fresh  # noqa: E402
 
 from stictionbench.diagnosis import diagnose  # noqa: E402
 from stictionbench.diagnosis.hypotheses import lowpass_corner  # noqa: E402
 from stictionbench.io import atomic_path, write_text  # noqa: E402
-from stictionbench.rates import rate_text, wilson  # noqa: E402
-from stictionbench.recording import Recording  # noqa: E402
+from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
 #: the diagnosis module itself (the package exports its function under the same name)
 dmod = importlib.import_module("stictionbench.diagnosis.diagnose")
-FAMILIES = (*cf.FAMILIES, hf.FAMILY)
+FAMILIES = fresh.FAMILIES
 OSC = "oscillatory_disturbance"
 #: period bins in closed-loop time constants (the families draw 2–50)
 BINS = ((2.0, 5.0), (5.0, 15.0), (15.0, 50.0))
@@ -74,12 +72,7 @@ def cases(seeds: int, none_seeds: int) -> list[tuple[str, str, int, int]]:
 
 
 def one(family: str, cls: str, level: int, seed: int) -> dict:
-    if family == hf.FAMILY:
-        c, sig = hf.make_recording(cls, level, seed)
-    else:
-        c, sig = cf.make_recording(family, cls, level, seed)
-    m = cf.nominal_model(c)
-    rec = Recording.from_arrays(sig["t"], sig["PV"], sig["OP"], SP=sig["SP"])
+    c, m, rec = fresh.recording(family, cls, level, seed)
     period = c.truth.get("period", np.nan)
     row = {"family": family, "class": cls, "level": level, "seed": seed,
            "period": period, "lam_cl": c.lam_cl, "tau": c.tau,
@@ -135,19 +128,12 @@ def figure(df: pd.DataFrame, path: Path) -> None:
     x = np.arange(len(BINS))
     for ax, level in zip(axes, (1, 2), strict=True):
         osc = df[(df["class"] == OSC) & (df["level"] == level)]
-        for k, (label, colour) in enumerate((("shipped", "C0"), ("tau_band", "C7"))):
-            rates, err = [], [[], []]
-            for lo, hi in BINS:
-                g = osc[(osc["period_over_lam_cl"] >= lo) & (osc["period_over_lam_cl"] < hi)]
-                n, hit = len(g), int((g[label] == OSC).sum())
-                r = hit / n if n else np.nan
-                w = wilson(hit, n) if n else (np.nan, np.nan)
-                rates.append(r)
-                err[0].append(r - w[0])
-                err[1].append(w[1] - r)
-            ax.bar(x + (k - 0.5) * 0.38, rates, 0.38, yerr=err, color=colour, capsize=3,
-                   label={"shipped": "band widened for a residual line (shipped)",
-                          "tau_band": "band from τ and PV alone"}[label])
+        fresh.rate_bars(
+            ax, [osc[(osc["period_over_lam_cl"] >= lo) & (osc["period_over_lam_cl"] < hi)]
+                 for lo, hi in BINS],
+            lambda g, col: int((g[col] == OSC).sum()),
+            [("shipped", "C0", "band widened for a residual line (shipped)"),
+             ("tau_band", "C7", "band from τ and PV alone")])
         ax.set_xticks(x, [f"{lo:g}–{hi:g}" for lo, hi in BINS])
         ax.set_xlabel("disturbance period / closed-loop time constant")
         ax.set_ylim(0, 1.05)
@@ -167,12 +153,7 @@ def main(argv=None) -> int:
     ap.add_argument("--none-seeds", type=int, default=12)
     ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args(argv)
-    from joblib import Parallel, delayed
-    from tqdm import tqdm
-
-    todo = cases(args.seeds, args.none_seeds)
-    gen = Parallel(n_jobs=args.jobs, return_as="generator")(delayed(one)(*c) for c in todo)
-    df = pd.DataFrame(list(tqdm(gen, total=len(todo), desc="diagnose", unit="rec")))
+    df = fresh.run(one, cases(args.seeds, args.none_seeds), args.jobs)
     tab, bins = summary(df)
     OUT.mkdir(parents=True, exist_ok=True)
     with atomic_path(OUT / "disturbance_band.csv") as p:

@@ -1,0 +1,72 @@
+"""Recordings of the four generator families at seeds the benchmark never draws, diagnosed
+in parallel, and the Wilson-interval bar charts of the experiments that compare a shipped
+rule with its ablation on them (``disturbance_band.py``, ``dead_time_gate.py``).
+
+The families: the three tuning families of ``concealed_families.py`` and the holdout
+family of ``holdout_family.py``; each recording comes with the nominal model the benchmark
+gives the diagnosis.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "experiments"))
+
+import concealed_families as cf  # noqa: E402
+import holdout_family as hf  # noqa: E402
+
+from stictionbench.diagnosis import NominalModel  # noqa: E402
+from stictionbench.rates import wilson  # noqa: E402
+from stictionbench.recording import Recording  # noqa: E402
+
+FAMILIES = (*cf.FAMILIES, hf.FAMILY)
+CLASSES = cf.CLASSES
+
+
+def recording(family: str, cls: str, level: int,
+              seed: int) -> tuple[cf.Case, NominalModel, Recording]:
+    """One drawn recording of any of the four families, its case and its nominal model."""
+    if family == hf.FAMILY:
+        c, sig = hf.make_recording(cls, level, seed)
+    else:
+        c, sig = cf.make_recording(family, cls, level, seed)
+    rec = Recording.from_arrays(sig["t"], sig["PV"], sig["OP"], SP=sig["SP"])
+    return c, cf.nominal_model(c), rec
+
+
+def run(fn: Callable[..., dict], todo: list[tuple], jobs: int) -> pd.DataFrame:
+    """``fn(*case)`` for every case on ``jobs`` workers, a progress bar by recording
+    finished."""
+    from joblib import Parallel, delayed
+    from tqdm import tqdm
+
+    gen = Parallel(n_jobs=jobs, return_as="generator")(delayed(fn)(*c) for c in todo)
+    return pd.DataFrame(list(tqdm(gen, total=len(todo), desc="diagnose", unit="rec")))
+
+
+def rate_bars(ax, groups: Iterable[pd.DataFrame], hit: Callable[[pd.DataFrame, str], int],
+              series: list[tuple[str, str, str]]) -> None:
+    """Side-by-side bars of ``hit(group, column) / len(group)`` with Wilson 95 % error
+    bars, one bar per ``(column, colour, legend label)`` in ``series`` at each group."""
+    groups = list(groups)
+    x = np.arange(len(groups))
+    width = 0.76 / len(series)
+    for k, (column, colour, label) in enumerate(series):
+        rates, err = [], [[], []]
+        for g in groups:
+            n, h = len(g), hit(g, column) if len(g) else 0
+            r = h / n if n else np.nan
+            w = wilson(h, n) if n else (np.nan, np.nan)
+            rates.append(r)
+            err[0].append(r - w[0])
+            err[1].append(w[1] - r)
+        ax.bar(x + (k - (len(series) - 1) / 2) * width, rates, width, yerr=err, color=colour,
+               capsize=3, label=label)
