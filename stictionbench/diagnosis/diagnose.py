@@ -23,7 +23,10 @@
 5. :func:`validate` — prediction-error evidence on the validation blocks
    (:mod:`.evidence`): likelihood-ratio tests of whitened innovations against the
    nominal model, BIC across families, the slip-jump interval for stiction vs dead band,
-   residual whiteness and independence from OP.
+   residual whiteness and independence from OP; and whether the identified valve,
+   closed with the loop's PI, reproduces the recorded oscillation by itself
+   (:mod:`.cycle`), which names a significant valve over hypotheses that need an
+   external source.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ import numpy as np
 from ..errors import InputError
 from ..op_range import infer_op_range
 from ..recording import Recording
+from .cycle import CycleCheck, check_cycle
 from .evidence import ALPHA, MIN_IMPROVEMENT, Verdict
 from .evidence import validate as _validate
 from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
@@ -51,7 +55,7 @@ from .locate import (
     oscillation_frequency,
     tone_periods,
 )
-from .model import NominalModel, identify_pi
+from .model import NominalModel, fit_pi, identify_pi
 from .noise import fit_noise_model
 from .openloop import highpass
 from .process import (
@@ -432,14 +436,32 @@ def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA) -> tup
     return fits, h
 
 
-def validate(cmp: Comparison, fits: dict[str, Fit], *, alpha: float = ALPHA,
-             min_improvement: float = MIN_IMPROVEMENT) -> Verdict:
+def cycle_evidence(cmp: Comparison, ham: HammersteinResult | None) -> CycleCheck | None:
+    """Whether the identified valve, closed with the loop's PI, reproduces the recorded
+    oscillation by itself (:func:`.cycle.check_cycle`): the given model's PI when it has
+    one, else the PI identified from the recording (:func:`.model.fit_pi`, SP estimated
+    when not recorded). ``None`` without a valve identification."""
+    if ham is None:
+        return None
+    m, rec = cmp.model, cmp.rec
+    pi = (m.kc, m.ti) if m.source == "given" and m.kc is not None and m.ti is not None \
+        else fit_pi(rec.PV, rec.OP, rec.Ts, rec.SP)
+    p = ham.process
+    return check_cycle(rec.PV, rec.OP, rec.Ts, cmp.prob.f_hp, ham.S, ham.J,
+                       (p["gain"], p["time_constant"], p["dead_time"]), pi)
+
+
+def validate(cmp: Comparison, fits: dict[str, Fit], ham: HammersteinResult | None = None, *,
+             alpha: float = ALPHA, min_improvement: float = MIN_IMPROVEMENT) -> Verdict:
     """Stage 5: prediction-error evidence (:func:`.evidence.validate`), one step and
-    ``τ + θ`` ahead (the loop's time scale)."""
+    ``τ + θ`` ahead (the loop's time scale), and, with a valve identification ``ham``,
+    whether its valve reproduces the recorded oscillation in closed loop
+    (:func:`cycle_evidence`)."""
     c = cmp.ctx
     horizon = max(1, int(round((c.tau + c.theta) / c.Ts)))
     return _validate(fits, c.pv, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val,
-                     alpha=alpha, min_improvement=min_improvement, horizon=horizon)
+                     alpha=alpha, min_improvement=min_improvement, horizon=horizon,
+                     cycle=cycle_evidence(cmp, ham))
 
 
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
@@ -490,7 +512,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     loc = locate(cmp)
     names = hypothesise(cmp, loc, hypotheses)
     fits, ham = fit(cmp, names, alpha=alpha)
-    verdict = validate(cmp, fits, alpha=alpha, min_improvement=min_improvement)
+    verdict = validate(cmp, fits, ham, alpha=alpha, min_improvement=min_improvement)
     d = _assemble(cmp, loc, fits, verdict, ham)
     d.details["seconds"] = time.perf_counter() - t0
     return d

@@ -32,6 +32,10 @@ into its own, more flexible, noise model (Ljung, *System Identification*, 1999, 
   of any discrete replay) and the stiction fit itself passes its likelihood-ratio test
   against the nominal model on the validation blocks (the ``J`` interval comes from the
   training blocks);
+- **the oscillation explained from inside the loop**: when the identified valve, closed
+  with the loop's PI, reproduces the recorded oscillation's period and PV and OP
+  amplitudes by itself (:mod:`.cycle`), a significant valve hypothesis is named over the
+  other significant ones (:func:`select`);
 - **residual analysis** of the named model: Ljung–Box whiteness of its innovations and
   their independence from past OP (pre-whitened by its own AR model; lag 0 left out,
   since in closed loop OP reacts to the current PV).
@@ -45,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from .cycle import CycleCheck
 from .fit import Fit
 from .hypotheses import HYPOTHESES, Nominal
 from .noise import NoiseModel, fit_noise_model, input_independence, ljung_box, lr_test
@@ -131,7 +136,8 @@ def _against_nominal(name: str, ft: Fit, base: Fit, var: dict[str, dict[str, flo
 
 def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_hp: float,
              train: np.ndarray, val: np.ndarray, *, alpha: float,
-             min_improvement: float, horizon: int = 1) -> Verdict:
+             min_improvement: float, horizon: int = 1,
+             cycle: CycleCheck | None = None) -> Verdict:
     """Decide among fitted hypotheses (``fits["none"]`` is the nominal model) by
     prediction-error likelihood; see the module docstring. ``horizon`` (samples) adds
     the k-step-ahead test (the loop's time scale ``τ + θ``)."""
@@ -165,8 +171,11 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
     tests: dict[str, Any] = {}
     if {"stiction", "deadband"} <= set(fits):
         tests["slip_jump_zero"] = _slip_jump_test(fits, var, train.size)
+    if cycle is not None:
+        tests["closed_loop_cycle"] = cycle.to_dict()
     pick = select(rows, tests.get("slip_jump_zero", {}).get("p_value"), alpha=alpha,
-                  min_improvement=min_improvement)
+                  min_improvement=min_improvement,
+                  cycle_reproduced=bool(cycle is not None and cycle.reproduced))
     return Verdict(pick, _ranking(rows), _residual_tests(tests, rows, pick, e, op, Ts, f_hp,
                                                          noise, val), noise, e, var)
 
@@ -198,7 +207,8 @@ def passes(row: dict[str, Any], alpha: float, min_improvement: float, *,
 
 def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: float,
            min_improvement: float, min_slip_fraction: float = MIN_SLIP_FRACTION,
-           own_resolution: frozenset[str] = OWN_RESOLUTION) -> str:
+           own_resolution: frozenset[str] = OWN_RESOLUTION,
+           cycle_reproduced: bool = False) -> str:
     """The decision rule alone, from each row's ``physics``, ``p_value`` (LR against the
     nominal model), ``improvement`` (validation NRMSE), ``at_bound`` (a fit on the end of
     a search-limited range, never named) and ``raw_score`` (BIC; or the
@@ -207,12 +217,22 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
     (nested) by the slip-jump test when either is the pick (stiction when ``J = 0`` is
     rejected and the fitted ``J`` is at least ``min_slip_fraction`` of ``S``). Benchmarks
     re-run it to set the thresholds on one generator family and test on another;
-    ``own_resolution`` (:func:`passes`) is there for the ablation that names it empty."""
+    ``own_resolution`` (:func:`passes`) is there for the ablation that names it empty.
+
+    ``cycle_reproduced`` (the identified valve, closed with the loop's PI, reproduces the
+    recorded oscillation by itself: :mod:`.cycle`) names a significant valve hypothesis
+    over any other significant one, whatever their BIC: the oscillation is then explained
+    without an external source, a prediction nothing was fitted to, where an external
+    line, a relay-like travel limit or a curve fitted from OP describe it only as well.
+    It never makes a valve significant by itself."""
     sig = {r["physics"] for r in rows
            if passes(r, alpha, min_improvement, own_resolution=own_resolution)}
-    pick = min((r for r in rows if r["physics"] in sig),
-               key=lambda r: r.get("raw_score", r.get("score", 0.0)),
+    pick = min((r for r in rows if r["physics"] in sig), key=_bic,
                default={"physics": "none"})["physics"]
+    valves = [r for r in rows if r["physics"] in sig and r["physics"] in ("stiction",
+                                                                          "deadband")]
+    if cycle_reproduced and valves:
+        pick = min(valves, key=_bic)["physics"]
     # the nested pair is one family: once either member is named, the slip-jump test
     # decides between them, whichever of the two passed its own test against the nominal
     # (a dead band whose stiction extension needs J ≠ 0 is stiction)
@@ -226,6 +246,11 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
         own = row["p_value"] < alpha and not row.get("at_bound", False)
         pick = "stiction" if slip_jump_p < alpha and big and own else "deadband"
     return pick
+
+
+def _bic(row: dict[str, Any]) -> float:
+    """A row's BIC (``raw_score``, or the ranking's ``score``: the same up to a constant)."""
+    return float(row.get("raw_score", row.get("score", 0.0)))
 
 
 def _ranking(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:

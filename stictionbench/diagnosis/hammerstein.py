@@ -177,6 +177,14 @@ def _bounds(crit: _Criterion, tau0: float, theta0: float):
     return (crit.Ts * 0.2, max(4 * tau0, T / 4)), (0.0, max(2 * theta0 + 5 * crit.Ts, T / 20))
 
 
+def _exp_within(z: float, lo: float, hi: float) -> float:
+    """``exp(z)`` clipped to ``[lo, hi]``: a search coordinate in logarithms mapped back.
+    Nelder–Mead's simplex is unbounded, and on a flat criterion it can wander to a ``z``
+    whose exponential overflows a float (seen on a simulated regulatory loop); the
+    exponent is capped there, which maps to ``hi`` as any large ``z`` does."""
+    return min(max(math.exp(min(z, 700.0)), lo), hi)
+
+
 def _nelder_mead(crit: _Criterion, f, z0: np.ndarray, steps, maxiter: int
                  ) -> tuple[float, np.ndarray]:
     """Nelder–Mead of ``f`` from ``z0``, initial simplex ``z0 + steps[i]·eᵢ``; ``f`` is
@@ -200,7 +208,7 @@ def _linear(crit: _Criterion, tau0: float, theta0: float) -> tuple[float, float,
     (tlo, thi), (dlo, dhi) = _bounds(crit, tau0, theta0)
 
     def unpack(z):
-        return min(max(math.exp(z[0]), tlo), thi), min(max(z[1] * crit.Ts, dlo), dhi)
+        return _exp_within(z[0], tlo, thi), min(max(z[1] * crit.Ts, dlo), dhi)
 
     z0 = np.array([math.log(max(tau0, tlo)), theta0 / crit.Ts])
     fun, z = _nelder_mead(crit, lambda z: crit.cost(0.0, 0.0, 0, *unpack(z)), z0,
@@ -283,7 +291,7 @@ def _refine(crit: _Criterion, p0: tuple, tau0: float, theta0: float) -> tuple[fl
     rule = p0[2]
     if crit.fixed:
         def unpack2(z):
-            S = min(max(math.exp(z[0]), 1e-3 * crit.span), 1.2 * crit.span)
+            S = _exp_within(z[0], 1e-3 * crit.span, 1.2 * crit.span)
             return (S, min(max(z[1], 0.0), 1.5) * S, rule, p0[3], p0[4])
         z0 = np.array([math.log(p0[0]), p0[1] / p0[0]])
         fun, z = _nelder_mead(crit, lambda z: crit.cost(*unpack2(z)), z0, (0.3, 0.25), 120)
@@ -292,9 +300,9 @@ def _refine(crit: _Criterion, p0: tuple, tau0: float, theta0: float) -> tuple[fl
     slo, shi = 1e-3 * crit.span, 1.2 * crit.span
 
     def unpack(z):
-        S = min(max(math.exp(z[0]), slo), shi)
+        S = _exp_within(z[0], slo, shi)
         return (S, min(max(z[1], 0.0), 1.5) * S, rule,
-                min(max(math.exp(z[2]), tlo), thi), min(max(z[3] * crit.Ts, dlo), dhi))
+                _exp_within(z[2], tlo, thi), min(max(z[3] * crit.Ts, dlo), dhi))
 
     # θ in sample times: the search does not depend on the unit of time
     z0 = np.array([math.log(p0[0]), p0[1] / p0[0], math.log(p0[3]), p0[4] / crit.Ts])

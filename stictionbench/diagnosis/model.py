@@ -121,31 +121,83 @@ def load_model(path: str | Path) -> NominalModel:
     return NominalModel(gain, tau, theta, kc, ti, Ts, "given", op_range)
 
 
-def identify_pi(rec: Recording) -> tuple[float, float] | None:
-    """Estimate an ideal PI ``(kc, ti)`` from SP, PV, OP by least squares on the
-    velocity form ``ΔOP[k] = kc·Δe[k−l] + kc·Ts/ti·e[k−l]`` for a recording lag
-    ``l ∈ {0, 1}`` (historians often store OP one execution late); ``None`` when SP is
-    absent or the best fit is not a PI controller (non-positive integral action, or it
-    explains less than half of the OP moves)."""
-    if rec.SP is None:
-        return None
-    e = rec.SP - rec.PV
-    dop = np.diff(rec.OP)
+#: share of the OP moves a PI fit must explain to count as the loop's controller
+MIN_PI_R2 = 0.5
+
+
+@dataclass(frozen=True)
+class PIFit:
+    """An ideal PI ``u = kc·(e + (1/ti)∫e dt)`` identified from a recording's samples.
+
+    ``r2`` is the share of the OP moves the velocity form explains; ``lag`` the recording
+    lag (OP stored 0 or 1 sample late); ``setpoint`` the set point (the mean of the
+    recorded SP, or the fit's estimate of a constant one when SP was not recorded)."""
+
+    kc: float
+    ti: float
+    r2: float
+    lag: int
+    setpoint: float
+    setpoint_recorded: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def fit_pi(pv: np.ndarray, op: np.ndarray, Ts: float,
+           sp: np.ndarray | None = None) -> PIFit | None:
+    """Least-squares fit of the PI velocity form ``ΔOP[k] = kc·Δe[k−l] + kc·Ts/ti·e[k−l]``,
+    ``e = SP − PV``, for a recording lag ``l ∈ {0, 1}`` (historians often store OP one
+    execution late).
+
+    Without a recorded SP the set point is taken constant and unknown (a regulatory
+    loop): ``ΔOP = −kc·ΔPV − (kc·Ts/ti)·PV + c`` with ``c = (kc·Ts/ti)·SP``, linear in
+    its three coefficients.
+
+    Returns ``None`` when the best fit is not a PI controller: it explains less than
+    :data:`MIN_PI_R2` of the OP moves (``1 − SSE/ΣΔOP²``), or its integral action is not
+    positive. A PI executed faster than the historian, filtered or compressed OP data,
+    or a controller with other terms usually fail the first condition.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pv = np.sin(np.arange(300) / 7.0)
+    >>> op = 20 + np.cumsum(0.5 * (np.r_[0, -np.diff(pv)] + 0.1 * (0.3 - pv)))
+    >>> f = fit_pi(pv, op, 1.0)
+    >>> round(f.kc, 3), round(f.ti, 3), round(f.setpoint, 3)
+    (0.5, 10.0, 0.3)
+    """
+    pv, op = np.asarray(pv, float), np.asarray(op, float)
+    dop = np.diff(op)
+    if sp is None:
+        X0 = np.column_stack([-np.diff(pv), -pv[1:], np.ones(pv.size - 1)])
+    else:
+        e = np.asarray(sp, float) - pv
+        X0 = np.column_stack([np.diff(e), e[1:]])
     best = None
     for lag in (0, 1):
-        X = np.column_stack([np.diff(e), e[1:]])
-        y = dop
-        if lag:
-            X, y = X[:-1], dop[1:]
-        if np.linalg.matrix_rank(X) < 2:
+        X, y = (X0[:-1], dop[1:]) if lag else (X0, dop)
+        if np.linalg.matrix_rank(X) < X.shape[1]:
             continue
         coef, *_ = np.linalg.lstsq(X, y, rcond=None)
         r2 = 1 - float(np.sum((y - X @ coef) ** 2)) / max(float(np.sum(y * y)), 1e-300)
         if best is None or r2 > best[0]:
-            best = (r2, coef)
-    if best is None or best[0] < 0.5:
+            best = (r2, coef, lag)
+    if best is None or best[0] < MIN_PI_R2:
         return None
-    a, b = best[1]
+    r2, coef, lag = best
+    a, b = float(coef[0]), float(coef[1])
     if a == 0 or b / a <= 0:
         return None
-    return float(a), float(a * rec.Ts / b)
+    setpoint = float(np.mean(sp)) if sp is not None else float(coef[2]) / b
+    return PIFit(a, a * Ts / b, float(r2), int(lag), setpoint, sp is not None)
+
+
+def identify_pi(rec: Recording) -> tuple[float, float] | None:
+    """Estimate an ideal PI ``(kc, ti)`` from SP, PV, OP (:func:`fit_pi`); ``None`` when
+    SP is absent or the best fit is not a PI controller."""
+    if rec.SP is None:
+        return None
+    f = fit_pi(rec.PV, rec.OP, rec.Ts, rec.SP)
+    return None if f is None else (f.kc, f.ti)

@@ -1,0 +1,185 @@
+"""Does the fitted valve explain the recorded oscillation by itself?
+
+A sticky valve under a PI controller makes its own limit cycle: the controller's integral
+winds until the valve slips, it overshoots, and the loop repeats (Choudhury, Thornhill &
+Shah, *Control Eng. Practice* 13 (2005) 641, section 5; Jelali & Huang (eds.),
+*Detection and Diagnosis of Stiction in Control Loops*, Springer 2010, ch. 2). An
+external oscillation needs a source outside the loop. The valve identification
+(:mod:`.hammerstein`) fits the valve and the process *open loop*, from the recorded OP;
+the cycle check closes that fitted loop with the loop's own controller — the given
+model's PI, or the PI identified from the recording (:func:`.model.fit_pi`) — and runs it
+with no disturbance and no noise from a set-point offset large enough to free the valve
+(the closed-loop kernel of :mod:`stictionbench.sim`, Kano's valve). When the recording
+oscillates regularly (Thornhill, Huang & Zhang, *J. Process Control* 13 (2003) 91: the
+ACF's zero crossings, regularity above 1) and the simulated loop settles into a cycle of
+the same period and of the same PV and OP amplitude (the fundamental's, by least squares
+at the recorded period), the valve explains the oscillation without an external source:
+a prediction of a quantity nothing was fitted to.
+
+The tolerances, :data:`PERIOD_TOLERANCE` and :data:`AMPLITUDE_TOLERANCE`, are fixed here
+a priori (a stick-slip cycle's period and amplitude move with ``S``, ``J`` and the loop
+gain, which the open-loop fit resolves to tens of per cent), not tuned on any data set;
+``experiments/limit_cycles.py`` reports how they separate the classes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..estimators.oscillation import acf_oscillation
+from ..sim.blocks import FOPDT
+from ..sim.kernel import run_loop
+from ..sim.valves import KanoValve, init_state
+from .model import PIFit
+from .openloop import highpass
+
+#: the simulated period may differ from the recorded one by this factor (either way)
+PERIOD_TOLERANCE = 1.3
+#: the simulated PV and OP amplitudes may differ from the recorded ones by this factor
+AMPLITUDE_TOLERANCE = 2.0
+#: recorded cycles simulated (at least the record's length), and the cap in samples
+CYCLES_SIMULATED = 30
+MAX_SIMULATED = 60_000
+#: travel and output limits of the simulated loop: none (OP may be mean-removed)
+_FREE = 1e12
+
+
+@dataclass
+class CycleCheck:
+    """Outcome of :func:`check_cycle`. ``reproduced`` is the evidence; ``reason`` says
+    why the check did not apply when it did not."""
+
+    applicable: bool
+    reproduced: bool
+    reason: str
+    recorded: dict[str, float] = field(default_factory=dict)
+    simulated: dict[str, float] = field(default_factory=dict)
+    log_ratios: dict[str, float] = field(default_factory=dict)
+    controller: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"applicable": self.applicable, "reproduced": self.reproduced,
+                "reason": self.reason, "recorded": self.recorded,
+                "simulated": self.simulated, "log_ratios": self.log_ratios,
+                "controller": self.controller,
+                "tolerances": {"period": PERIOD_TOLERANCE, "amplitude": AMPLITUDE_TOLERANCE}}
+
+
+def fundamental(x: np.ndarray, Ts: float, period: float) -> float:
+    """Amplitude of the sinusoid of ``period`` (s) in ``x`` (least squares, with an
+    offset and a linear trend).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(500.0)
+    >>> round(fundamental(2.0 * np.sin(2 * np.pi * t / 50) + 0.01 * t, 1.0, 50.0), 6)
+    2.0
+    """
+    t = np.arange(x.size) * Ts
+    w = 2.0 * math.pi / period
+    X = np.column_stack([np.sin(w * t), np.cos(w * t), np.ones_like(t), t - t.mean()])
+    c, *_ = np.linalg.lstsq(X, np.asarray(x, float), rcond=None)
+    return float(math.hypot(c[0], c[1]))
+
+
+def cycle_features(pv: np.ndarray, op: np.ndarray, Ts: float) -> dict[str, float] | None:
+    """Period (s) and regularity of ``pv``'s oscillation (:func:`~stictionbench.estimators.
+    oscillation.acf_oscillation`) and the amplitudes of PV's and OP's fundamental at that
+    period; ``None`` when ``pv`` does not oscillate regularly."""
+    try:
+        a = acf_oscillation(pv, Ts)
+    except InputError:
+        return None
+    if not a.oscillating:
+        return None
+    return {"period": float(a.period), "regularity": float(a.regularity),
+            "pv_amplitude": fundamental(pv, Ts, a.period),
+            "op_amplitude": fundamental(op, Ts, a.period)}
+
+
+def closed_loop(S: float, J: float, gain: float, tau: float, theta: float, kc: float,
+                ti: float, Ts: float, n: int, offset: float) -> tuple[np.ndarray, np.ndarray]:
+    """PV and OP (deviations) of the loop PI → Kano valve ``(S, J)`` → FOPDT, executed
+    at ``Ts`` for ``n`` samples from rest with the set point ``offset`` away, no
+    disturbance and no noise (:func:`stictionbench.sim.kernel.run_loop`)."""
+    proc = FOPDT(gain=gain, time_constant=tau, dead_time=theta).coefficients(Ts)
+    ctrl = np.array([kc, ti, Ts, -_FREE, _FREE, 0.0])
+    kind, vp, post = KanoValve(S=S, J=J, travel_low=-_FREE, travel_high=_FREE).encode()
+    state = init_state(kind, vp, 0.0)
+    zero = np.zeros(n)
+    out = run_loop(np.full(n, offset), zero, zero, 1, Ts, 1, proc, ctrl, kind, vp, state,
+                   post, 0.0, 0.0)
+    return out[:, 1], out[:, 2]
+
+
+def check_cycle(pv: np.ndarray, op: np.ndarray, Ts: float, f_hp: float, S: float, J: float,
+                process: tuple[float, float, float], pi: PIFit | tuple[float, float] | None
+                ) -> CycleCheck:
+    """Close the fitted valve and process with the loop's PI and compare the simulated
+    limit cycle with the recorded oscillation (see the module docstring).
+
+    Parameters
+    ----------
+    pv, op : ndarray
+        The recording; PV and OP are high-passed at ``f_hp`` (the diagnosis's slow-load
+        cut-off) before the recorded cycle is measured.
+    Ts : float
+        Sample time (s); the simulated PI executes at it.
+    S, J : float
+        The fitted valve (% of OP, Kano's parameters).
+    process : (K, τ, θ)
+        The fitted process.
+    pi : PIFit or (kc, ti) or None
+        The loop's controller (``None``: not identified).
+
+    Returns
+    -------
+    CycleCheck
+
+    References
+    ----------
+    Choudhury, Thornhill & Shah (2005); Thornhill, Huang & Zhang (2003); Kano et al.,
+    DYCOPS 2004.
+    """
+    K, tau, theta = process
+    if pi is None:
+        return CycleCheck(False, False, "no PI controller identified from the recording "
+                                        "(it explains under half of the OP moves)")
+    kc, ti = (pi.kc, pi.ti) if isinstance(pi, PIFit) else pi
+    ctrl = pi.to_dict() if isinstance(pi, PIFit) else {"kc": kc, "ti": ti}
+    if S <= 0:
+        return CycleCheck(False, False, "no valve fitted", controller=ctrl)
+    if not (kc * K > 0 and ti > 0 and tau > 0):
+        return CycleCheck(False, False, "the controller and the fitted process do not form "
+                                        "a negative feedback loop", controller=ctrl)
+    y = highpass(np.asarray(pv, float), Ts, f_hp)
+    u = highpass(np.asarray(op, float), Ts, f_hp)
+    rec = cycle_features(y, u, Ts)
+    if rec is None:
+        return CycleCheck(False, False, "the recording does not oscillate regularly",
+                          controller=ctrl)
+    n = int(min(max(pv.size, CYCLES_SIMULATED * rec["period"] / Ts), MAX_SIMULATED))
+    spv, sop = closed_loop(S, J, K, tau, theta, kc, ti, Ts, n, 2.0 * K * S)
+    half = slice(n // 2, n)
+    ys, us = spv[half] - spv[half].mean(), sop[half] - sop[half].mean()
+    sim = None
+    if np.all(np.isfinite(ys)) and np.ptp(ys) > 1e-9 * max(rec["pv_amplitude"], 1e-300) \
+            and np.max(np.abs(ys)) < 1e6 * max(rec["pv_amplitude"], 1e-300):
+        sim = cycle_features(ys, us, Ts)
+    if sim is None:
+        return CycleCheck(True, False, "the fitted loop does not cycle by itself", rec,
+                          controller=ctrl)
+    ratios = {"period": math.log(sim["period"] / rec["period"]),
+              "pv_amplitude": math.log(max(sim["pv_amplitude"], 1e-300) / rec["pv_amplitude"]),
+              "op_amplitude": math.log(max(sim["op_amplitude"], 1e-300) / rec["op_amplitude"])}
+    ok = (abs(ratios["period"]) <= math.log(PERIOD_TOLERANCE)
+          and abs(ratios["pv_amplitude"]) <= math.log(AMPLITUDE_TOLERANCE)
+          and abs(ratios["op_amplitude"]) <= math.log(AMPLITUDE_TOLERANCE))
+    return CycleCheck(True, ok, "reproduced" if ok else "the fitted loop cycles differently",
+                      rec, sim, ratios, ctrl)
