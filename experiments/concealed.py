@@ -113,15 +113,18 @@ def run_one(job: dict) -> dict:
                  "at_bound": r["at_bound"], "parameters": r["parameters"]}
                 for r in d.ranking]
     slip = d.tests.get("slip_jump_zero", {}).get("p_value")
+    cycle = bool(d.tests.get("closed_loop_cycle", {}).get("reproduced", False))
     return {k: job[k] for k in ("name", "family", "class", "level", "seed", "effect",
                                 "noise_frac")} | {
         "predicted_default": d.missing_physics, "truth": json.dumps(job["truth"]),
-        "evidence": json.dumps(evidence), "slip_jump_p": slip, "seconds": seconds}
+        "evidence": json.dumps(evidence), "slip_jump_p": slip, "cycle_reproduced": cycle,
+        "seconds": seconds}
 
 
 def decide(row: pd.Series, alpha: float, min_improvement: float) -> str:
     return select(json.loads(row["evidence"]), row["slip_jump_p"], alpha=alpha,
-                  min_improvement=min_improvement)
+                  min_improvement=min_improvement,
+                  cycle_reproduced=bool(row.get("cycle_reproduced", False)))
 
 
 def picks(df: pd.DataFrame, alpha: float, min_improvement: float) -> pd.Series:

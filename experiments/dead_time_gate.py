@@ -79,7 +79,8 @@ def one(family: str, cls: str, level: int, seed: int) -> dict:
     d = diagnose(rec, m)
     slip = d.tests.get("slip_jump_zero", {}).get("p_value")
     earlier = select(d.ranking, slip, alpha=ALPHA, min_improvement=MIN_IMPROVEMENT,
-                     own_resolution=frozenset())
+                     own_resolution=frozenset(), cycle_reproduced=bool(
+                         d.tests.get("closed_loop_cycle", {}).get("reproduced", False)))
     dt = next(r for r in d.ranking if r["physics"] == "dead_time")
     return {"family": family, "class": cls, "level": level, "seed": seed,
             "effect": c.effect, "noise_frac": c.noise_frac, "theta": c.theta,
