@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -87,6 +88,8 @@ def main(argv=None) -> int:
         write_report(d, out / name)
         rk = {x["physics"]: x for x in d.ranking}
         iv = d.fits["stiction"].intervals
+        cyc = d.tests.get("closed_loop_cycle", {})
+        lr = cyc.get("log_ratios", {})
         rows.append({
             "loop": name, "label": rec.meta["label"], "Ts_s": r.Ts, "samples": len(r),
             "diagnosis": d.missing_physics,
@@ -103,6 +106,12 @@ def main(argv=None) -> int:
             "windows": len(d.mismatch_windows),
             "band_hz": json.dumps([round(x, 5) for x in d.mismatch_band_hz]),
             "model_tau_s": d.model.time_constant, "model_theta_s": d.model.dead_time,
+            "cycle_reproduced": bool(cyc.get("reproduced", False)),
+            "cycle_check": cyc.get("reason", "no valve identification"),
+            "cycle_period_s": cyc.get("recorded", {}).get("period"),
+            "cycle_period_sim_s": cyc.get("simulated", {}).get("period"),
+            "cycle_pv_amp_ratio": math.exp(lr["pv_amplitude"]) if lr else None,
+            "cycle_op_amp_ratio": math.exp(lr["op_amplitude"]) if lr else None,
         })
         print(f"{name} ({rec.meta['label']}): {d.missing_physics}; stiction improvement "
               f"{rk['stiction']['improvement']:.0%}")
@@ -112,14 +121,25 @@ def main(argv=None) -> int:
     other = df[df.label != "stiction"]
     improved = st[st.stiction_improvement > 0]
     named = int((st.diagnosis == "stiction").sum())
+    sticky = int(st.diagnosis.isin(("stiction", "deadband")).sum())
     false = other[other.diagnosis == "stiction"]
     lo, hi = wilson(named, len(st))
+    cyc = df[df.cycle_reproduced]
     lines = [
         "# Model-free diagnosis of the labelled ISDB loops", "",
         f"- stiction loops named `stiction` (with fitted S, J): **{named} of {len(st)}** "
         f"(Wilson 95 % {lo:.0%}–{hi:.0%}; goal ≥ 8 of 10);",
         f"- non-stiction loops named `stiction`: **{len(false)} of {len(other)}**"
         + (f" ({', '.join(false.loop)})" if len(false) else "") + " (goal 0);",
+        f"- stiction loops named a sticky valve (stiction, or a dead band: its slip-jump "
+        f"interval reaches 0): {sticky} of {len(st)};",
+        f"- the identified valve, closed with the PI identified from the recording, "
+        f"reproduces the recorded oscillation by itself (period within 30 %, PV and OP "
+        f"amplitudes within a factor 2: `tests.closed_loop_cycle`) on {len(cyc)} loops"
+        + (f" ({', '.join(cyc.loop)})" if len(cyc) else "") + "; where it does, a "
+        "significant valve is named over an external line or a travel limit "
+        "([limit_cycles.md](../limit_cycles.md) checks that rule on regulatory loops "
+        "nobody tuned it on).",
         "",
         "Each loop: `diagnose` without `--model` (FOPDT identified from OP → PV; for the "
         "valve hypotheses the process is re-identified from the estimated valve output). "

@@ -73,6 +73,21 @@ def test_external_line_far_from_the_loops_cycle_is_not_reproduced():
             assert not check_cycle(rec.PV, rec.OP, 1.0, F_HP, S, S / 2, PROCESS, pi).reproduced
 
 
+def test_a_line_near_the_loops_own_cycle_is_rejected_by_its_waveform():
+    # a 150 s sinusoid in a loop whose stick-slip cycle is about 117 s: a valve sized to
+    # its amplitude matches period (within 30 %) and amplitudes, as the first version of
+    # the check found on 7 of 96 disturbances; a sinusoid has no third harmonic, a
+    # stick-slip cycle has one
+    rec = sb.simulate("linear", seed=3, valve="linear", disturbance="sinusoidal",
+                      disturbance__amplitude=2.0, disturbance__period=150.0, **BASE)
+    pi = fit_pi(rec.PV, rec.OP, 1.0)
+    for S in (1.0, 1.5, 2.0):
+        c = check_cycle(rec.PV, rec.OP, 1.0, F_HP, S, S / 2, PROCESS, pi)
+        lr = c.log_ratios
+        assert abs(lr["period"]) <= math.log(1.3) and abs(lr["pv_amplitude"]) <= math.log(2)
+        assert lr["pv_harmonic_ratio"] > math.log(2) and not c.reproduced
+
+
 def test_closed_loop_is_the_simulators_kernel():
     # the check's loop is the simulator's: a linear valve's closed loop settles at the
     # set point, a sticky one keeps cycling

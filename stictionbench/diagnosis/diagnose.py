@@ -65,8 +65,8 @@ from .process import (
     setpoint_excitation,
 )
 
-__all__ = ["Diagnosis", "closed_loop_replay", "compare", "diagnose", "fit", "fit_fopdt",
-           "hypothesise", "identify_fopdt", "locate", "validate", "valve_output"]
+__all__ = ["Diagnosis", "closed_loop_replay", "compare", "cycle_evidence", "diagnose", "fit",
+           "fit_fopdt", "hypothesise", "identify_fopdt", "locate", "validate", "valve_output"]
 
 N_BLOCKS = 5
 #: hypotheses fitted by the closed-loop Hammerstein identification
@@ -436,19 +436,22 @@ def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA) -> tup
     return fits, h
 
 
-def cycle_evidence(cmp: Comparison, ham: HammersteinResult | None) -> CycleCheck | None:
-    """Whether the identified valve, closed with the loop's PI, reproduces the recorded
+def cycle_evidence(rec: Recording, model: NominalModel, valve: dict[str, Any], f_hp: float,
+                   *, amplitude: str = "coherent") -> CycleCheck:
+    """Whether the identified valve (``valve``: the Hammerstein identification's ``S``,
+    ``J`` and ``process``), closed with the loop's PI, reproduces the recorded
     oscillation by itself (:func:`.cycle.check_cycle`): the given model's PI when it has
     one, else the PI identified from the recording (:func:`.model.fit_pi`, SP estimated
-    when not recorded). ``None`` without a valve identification."""
-    if ham is None:
-        return None
-    m, rec = cmp.model, cmp.rec
+    when not recorded). A finished :class:`Diagnosis` holds every argument
+    (``rec``, ``model``, ``details["hammerstein"]``, ``details["highpass_hz"]``), so the
+    check can be re-run on it with another ``amplitude``."""
+    m = model
     pi = (m.kc, m.ti) if m.source == "given" and m.kc is not None and m.ti is not None \
         else fit_pi(rec.PV, rec.OP, rec.Ts, rec.SP)
-    p = ham.process
-    return check_cycle(rec.PV, rec.OP, rec.Ts, cmp.prob.f_hp, ham.S, ham.J,
-                       (p["gain"], p["time_constant"], p["dead_time"]), pi)
+    p = valve["process"]
+    return check_cycle(rec.PV, rec.OP, rec.Ts, f_hp, valve["S"], valve["J"],
+                       (p["gain"], p["time_constant"], p["dead_time"]), pi,
+                       amplitude=amplitude)
 
 
 def validate(cmp: Comparison, fits: dict[str, Fit], ham: HammersteinResult | None = None, *,
@@ -459,9 +462,11 @@ def validate(cmp: Comparison, fits: dict[str, Fit], ham: HammersteinResult | Non
     (:func:`cycle_evidence`)."""
     c = cmp.ctx
     horizon = max(1, int(round((c.tau + c.theta) / c.Ts)))
+    cycle = None if ham is None else \
+        cycle_evidence(cmp.rec, cmp.model, ham.to_dict(), cmp.prob.f_hp)
     return _validate(fits, c.pv, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val,
                      alpha=alpha, min_improvement=min_improvement, horizon=horizon,
-                     cycle=cycle_evidence(cmp, ham))
+                     cycle=cycle)
 
 
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
