@@ -135,7 +135,8 @@ def main(argv=None) -> int:
         f"interval reaches 0): {sticky} of {len(st)};",
         f"- the identified valve, closed with the PI identified from the recording, "
         f"reproduces the recorded oscillation by itself (period within 30 %, PV and OP "
-        f"amplitudes within a factor 2: `tests.closed_loop_cycle`) on {len(cyc)} loops"
+        f"amplitudes and PV's waveform within a factor 2: `tests.closed_loop_cycle`) "
+        f"on {len(cyc)} loops"
         + (f" ({', '.join(cyc.loop)})" if len(cyc) else "") + "; where it does, a "
         "significant valve is named over an external line or a travel limit "
         "([limit_cycles.md](../limit_cycles.md) checks that rule on regulatory loops "

@@ -33,8 +33,8 @@ into its own, more flexible, noise model (Ljung, *System Identification*, 1999, 
   against the nominal model on the validation blocks (the ``J`` interval comes from the
   training blocks);
 - **the oscillation explained from inside the loop**: when the identified valve, closed
-  with the loop's PI, reproduces the recorded oscillation's period and PV and OP
-  amplitudes by itself (:mod:`.cycle`), a significant valve hypothesis is named over the
+  with the loop's PI, reproduces the recorded oscillation's period, PV and OP amplitudes
+  and waveform by itself (:mod:`.cycle`), a significant valve hypothesis is named over the
   other significant ones (:func:`select`);
 - **residual analysis** of the named model: Ljung–Box whiteness of its innovations and
   their independence from past OP (pre-whitened by its own AR model; lag 0 left out,
@@ -140,7 +140,9 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
              cycle: CycleCheck | None = None) -> Verdict:
     """Decide among fitted hypotheses (``fits["none"]`` is the nominal model) by
     prediction-error likelihood; see the module docstring. ``horizon`` (samples) adds
-    the k-step-ahead test (the loop's time scale ``τ + θ``)."""
+    the k-step-ahead test (the loop's time scale ``τ + θ``); ``cycle`` is the closed-loop
+    cycle check of the identified valve (:mod:`.cycle`), reported under ``tests`` and
+    passed to :func:`select`."""
     oe = {name: output_error(ft, pv, Ts, f_hp) for name, ft in fits.items()}
     best = min(fits, key=lambda k: fits[k].cost_train)
     noise = fit_noise_model(oe[best][train])
