@@ -58,7 +58,8 @@ from concealed_families import (  # noqa: E402
 )
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
-from stictionbench.diagnosis.evidence import select  # noqa: E402
+from stictionbench.diagnosis.diagnose import own_resolution  # noqa: E402
+from stictionbench.diagnosis.evidence import OWN_RESOLUTION, select  # noqa: E402
 from stictionbench.io import atomic_directory, read_recording  # noqa: E402
 from stictionbench.rates import rate_text, wilson  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
@@ -114,16 +115,18 @@ def run_one(job: dict) -> dict:
                 for r in d.ranking]
     slip = d.tests.get("slip_jump_zero", {}).get("p_value")
     cycle = bool(d.tests.get("closed_loop_cycle", {}).get("reproduced", False))
+    excited = bool(own_resolution(rec))
     return {k: job[k] for k in ("name", "family", "class", "level", "seed", "effect",
                                 "noise_frac")} | {
         "predicted_default": d.missing_physics, "truth": json.dumps(job["truth"]),
         "evidence": json.dumps(evidence), "slip_jump_p": slip, "cycle_reproduced": cycle,
-        "seconds": seconds}
+        "dead_time_own_resolution": excited, "seconds": seconds}
 
 
 def decide(row: pd.Series, alpha: float, min_improvement: float) -> str:
+    own = OWN_RESOLUTION if row.get("dead_time_own_resolution", True) else frozenset()
     return select(json.loads(row["evidence"]), row["slip_jump_p"], alpha=alpha,
-                  min_improvement=min_improvement,
+                  min_improvement=min_improvement, own_resolution=own,
                   cycle_reproduced=bool(row.get("cycle_reproduced", False)))
 
 

@@ -778,3 +778,25 @@ def test_fopdt_response_is_the_difference_equation_with_its_dead_time(theta, n):
     np.testing.assert_array_equal(fopdt_response(u[:, 1], 1.0, 12.0, theta), expected[:, 1])
     if theta >= n:
         assert not fopdt_response(u, 1.0, 12.0, theta).any()
+
+
+def test_dead_time_needs_excitation_for_its_own_resolution_rule():
+    # a regulatory loop (constant set point, the PI five times faster than the
+    # historian, a drifting load) with an ideal valve, diagnosed with its TRUE model: the
+    # nominal explains nothing of PV (the load), and a delay of 19 s (true 1 s) improved
+    # the validation NRMSE by 2 % with p < 0.01 — named dead_time by the own-resolution
+    # rule (improves at all), which now needs set-point excitation; without it the dead
+    # time meets the min_improvement gate like every other hypothesis
+    ov = ["process.gain=1.0", "process.time_constant=8.0", "process.dead_time=1.0",
+          "controller.kc=1.6", "controller.ti=8.0", "controller.sample_time=0.2",
+          "sensor=noisy", "sensor.time_constant=0.0", "sensor.noise_std=0.1",
+          "disturbance=load", "disturbance.load_std=2.0",
+          "disturbance.load_time_constant=300.0", "setpoint=constant", "valve=linear"]
+    rec = sb.simulate("linear", duration=3000.0, seed=4, sample_time=1.0, overrides=ov)
+    d = diagnose(rec, NominalModel(1.0, 8.0, 1.0, 1.6, 8.0, 1.0))
+    dt = next(r for r in d.ranking if r["physics"] == "dead_time")
+    assert dt["p_value"] < 0.05 and 0 < dt["improvement"] < 0.1 and not dt["at_bound"]
+    assert d.missing_physics == "none"
+    assert "min_improvement" in d.details["dead_time_significance"]
+    # the same rows with set-point excitation: the own-resolution rule names it
+    assert select(d.ranking, None, alpha=0.05, min_improvement=0.1) == "dead_time"

@@ -42,7 +42,7 @@ from ..errors import InputError
 from ..op_range import infer_op_range
 from ..recording import Recording
 from .cycle import CycleCheck, check_cycle
-from .evidence import ALPHA, MIN_IMPROVEMENT, Verdict
+from .evidence import ALPHA, MIN_IMPROVEMENT, OWN_RESOLUTION, Verdict
 from .evidence import validate as _validate
 from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
 from .hammerstein import HammersteinResult, fit_hammerstein
@@ -66,7 +66,8 @@ from .process import (
 )
 
 __all__ = ["Diagnosis", "closed_loop_replay", "compare", "cycle_evidence", "diagnose", "fit",
-           "fit_fopdt", "hypothesise", "identify_fopdt", "locate", "validate", "valve_output"]
+           "fit_fopdt", "hypothesise", "identify_fopdt", "locate", "own_resolution",
+           "validate", "valve_output"]
 
 N_BLOCKS = 5
 #: hypotheses fitted by the closed-loop Hammerstein identification
@@ -459,14 +460,25 @@ def validate(cmp: Comparison, fits: dict[str, Fit], ham: HammersteinResult | Non
     """Stage 5: prediction-error evidence (:func:`.evidence.validate`), one step and
     ``τ + θ`` ahead (the loop's time scale), and, with a valve identification ``ham``,
     whether its valve reproduces the recorded oscillation in closed loop
-    (:func:`cycle_evidence`)."""
+    (:func:`cycle_evidence`); the dead time's own-resolution rule only with set-point
+    excitation (:func:`own_resolution`)."""
     c = cmp.ctx
     horizon = max(1, int(round((c.tau + c.theta) / c.Ts)))
     cycle = None if ham is None else \
         cycle_evidence(cmp.rec, cmp.model, ham.to_dict(), cmp.prob.f_hp)
     return _validate(fits, c.pv, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val,
                      alpha=alpha, min_improvement=min_improvement, horizon=horizon,
-                     cycle=cycle)
+                     cycle=cycle, own_resolution=own_resolution(cmp.rec))
+
+
+def own_resolution(rec: Recording) -> frozenset[str]:
+    """The hypotheses whose practical significance is their own resolution
+    (:func:`.evidence.passes`): the dead time's, on a recording with set-point excitation
+    (:func:`.process.setpoint_excitation` at least :data:`.process.
+    MIN_SETPOINT_EXCITATION`); none on regulatory data, where a delay fitted from
+    closed-loop OP and PV follows the load OP answers rather than the process."""
+    return OWN_RESOLUTION if setpoint_excitation(rec) >= MIN_SETPOINT_EXCITATION \
+        else frozenset()
 
 
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
@@ -543,6 +555,9 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
         {"pv_nrmse": cl["pv_nrmse"], "op_nrmse": cl["op_nrmse"]},
         "hammerstein": None if ham is None else ham.to_dict(),
         "setpoint_excitation": setpoint_excitation(cmp.rec),
+        "dead_time_significance": "its own resolution (a recording with set-point "
+        "excitation)" if own_resolution(cmp.rec) else "the min_improvement gate "
+        "(regulatory data: a delay fitted in closed loop follows the load)",
         "op_range": None if cmp.ctx.op_range is None else list(cmp.ctx.op_range),
         "seconds": None,
     }

@@ -108,7 +108,8 @@ class Hypothesis:
     #: resolve, stated in the parameter's own unit (a dead time within one sample of the
     #: nominal): practical significance is then that, and the validation NRMSE need only
     #: improve, not by ``min_improvement`` — a gate in NRMSE, which PV noise and an
-    #: unmeasured load shrink whatever the size of the effect (:func:`.evidence.passes`)
+    #: unmeasured load shrink whatever the size of the effect (:func:`.evidence.passes`);
+    #: on recordings with set-point excitation only (:func:`.diagnose.own_resolution`)
     own_resolution = False
 
     def grid(self, ctx: Context) -> list[np.ndarray]:
