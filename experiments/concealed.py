@@ -58,7 +58,6 @@ from concealed_families import (  # noqa: E402
 )
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
-from stictionbench.diagnosis.diagnose import own_resolution  # noqa: E402
 from stictionbench.diagnosis.evidence import OWN_RESOLUTION, select  # noqa: E402
 from stictionbench.io import atomic_directory, read_recording  # noqa: E402
 from stictionbench.rates import rate_text, wilson  # noqa: E402
@@ -115,7 +114,7 @@ def run_one(job: dict) -> dict:
                 for r in d.ranking]
     slip = d.tests.get("slip_jump_zero", {}).get("p_value")
     cycle = bool(d.tests.get("closed_loop_cycle", {}).get("reproduced", False))
-    excited = bool(own_resolution(rec))
+    excited = bool(d.details["dead_time_own_resolution"])
     return {k: job[k] for k in ("name", "family", "class", "level", "seed", "effect",
                                 "noise_frac")} | {
         "predicted_default": d.missing_physics, "truth": json.dumps(job["truth"]),

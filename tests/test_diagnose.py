@@ -797,6 +797,14 @@ def test_dead_time_needs_excitation_for_its_own_resolution_rule():
     dt = next(r for r in d.ranking if r["physics"] == "dead_time")
     assert dt["p_value"] < 0.05 and 0 < dt["improvement"] < 0.1 and not dt["at_bound"]
     assert d.missing_physics == "none"
-    assert "min_improvement" in d.details["dead_time_significance"]
+    assert d.details["dead_time_own_resolution"] is False
     # the same rows with set-point excitation: the own-resolution rule names it
     assert select(d.ranking, None, alpha=0.05, min_improvement=0.1) == "dead_time"
+
+
+def test_dead_time_own_resolution_only_against_a_given_model(stiction_rec):
+    # set-point steps (excitation well above the threshold): the rule applies against
+    # the user's model; without a model the nominal's dead time is itself identified,
+    # and a delay more than a sample from it is not missing physics
+    assert diagnose(stiction_rec, NOM).details["dead_time_own_resolution"] is True
+    assert diagnose(stiction_rec).details["dead_time_own_resolution"] is False

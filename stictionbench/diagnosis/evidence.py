@@ -17,12 +17,13 @@ into its own, more flexible, noise model (Ljung, *System Identification*, 1999, 
   validation blocks improves by at least ``min_improvement`` and its fit is not on an end
   of a search-limited range (``at_bound``: the oscillation period); a hypothesis whose
   ``at_bound`` is itself the data's resolution in its own unit (a dead time more than one
-  sample from the nominal) need only improve the NRMSE at all (:func:`passes`) — on a
-  recording with set-point excitation; on regulatory data (excitation below
-  :data:`~.process.MIN_SETPOINT_EXCITATION`) a delay fitted from closed-loop OP and PV is
-  biased by the load OP answers (a true 1 s read as 19–58 s, improving the NRMSE 2–9 %
-  with p < 0.01, given the true model: ``reports/diagnose/fast_loops.md``), and the dead
-  time meets the ``min_improvement`` gate like every other hypothesis;
+  sample from the nominal) need only improve the NRMSE at all (:func:`passes`) — against
+  a given model, on a recording with set-point excitation (:func:`.diagnose.
+  own_resolution`: on regulatory data a delay fitted from closed-loop OP and PV is
+  biased by the load OP answers, a true 1 s read as 19–58 s improving the NRMSE 2–9 %
+  with p < 0.01 given the true model; without a model the nominal's dead time is itself
+  identified); otherwise the dead time meets the ``min_improvement`` gate like every
+  other hypothesis;
 - **the process re-identified** (no model given): a valve hypothesis must also beat the
   linear loop refitted under the same criterion (the Hammerstein identification's own
   likelihood-ratio test); its p-value is the larger of the two (an intersection–union

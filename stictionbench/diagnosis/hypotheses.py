@@ -109,7 +109,8 @@ class Hypothesis:
     #: nominal): practical significance is then that, and the validation NRMSE need only
     #: improve, not by ``min_improvement`` — a gate in NRMSE, which PV noise and an
     #: unmeasured load shrink whatever the size of the effect (:func:`.evidence.passes`);
-    #: on recordings with set-point excitation only (:func:`.diagnose.own_resolution`)
+    #: against a given model on recordings with set-point excitation only
+    #: (:func:`.diagnose.own_resolution`)
     own_resolution = False
 
     def grid(self, ctx: Context) -> list[np.ndarray]:
