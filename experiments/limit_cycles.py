@@ -66,7 +66,12 @@ from stictionbench.diagnosis.cycle import (  # noqa: E402
     PERIOD_TOLERANCE,
 )
 from stictionbench.diagnosis.diagnose import Diagnosis, cycle_evidence  # noqa: E402
-from stictionbench.diagnosis.evidence import ALPHA, MIN_IMPROVEMENT, select  # noqa: E402
+from stictionbench.diagnosis.evidence import (  # noqa: E402
+    ALPHA,
+    MIN_IMPROVEMENT,
+    OWN_RESOLUTION,
+    select,
+)
 from stictionbench.io import atomic_path, write_text  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
@@ -134,9 +139,13 @@ def _evidence(d: Diagnosis) -> dict:
     band = cycle_evidence(d.rec, d.model, ham, d.details["highpass_hz"], amplitude="band") \
         if ham else None
     lr = cyc.get("log_ratios", {})
+    # re-decided as diagnose decided, the dead time's rule included
+    rule = {"alpha": ALPHA, "min_improvement": MIN_IMPROVEMENT,
+            "own_resolution": OWN_RESOLUTION if d.details["dead_time_own_resolution"]
+            else frozenset()}
     return {"shipped": d.missing_physics,
-            "ablation": select(d.ranking, slip, alpha=ALPHA, min_improvement=MIN_IMPROVEMENT),
-            "band": select(d.ranking, slip, alpha=ALPHA, min_improvement=MIN_IMPROVEMENT,
+            "ablation": select(d.ranking, slip, **rule),
+            "band": select(d.ranking, slip, **rule,
                            cycle_reproduced=bool(band is not None and band.reproduced)),
             "cycle_applicable": bool(cyc.get("applicable", False)),
             "cycle_reproduced": bool(cyc.get("reproduced", False)),
