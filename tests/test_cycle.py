@@ -11,7 +11,7 @@ import pytest
 
 import stictionbench as sb
 from stictionbench.diagnosis import NominalModel, diagnose
-from stictionbench.diagnosis.cycle import check_cycle, closed_loop
+from stictionbench.diagnosis.cycle import CycleCheck, check_cycle, closed_loop
 from stictionbench.diagnosis.evidence import select
 from stictionbench.diagnosis.hammerstein import _exp_within
 from stictionbench.diagnosis.model import fit_pi, identify_pi
@@ -140,3 +140,21 @@ def test_exp_within_never_overflows():
     assert _exp_within(1e4, 1.0, 10.0) == 10.0
     assert _exp_within(-1e4, 1.0, 10.0) == 1.0
     assert _exp_within(math.log(3.0), 1.0, 10.0) == pytest.approx(3.0)
+
+
+def test_check_is_strict_json_and_names_an_unstable_loop():
+    import json
+
+    # the ACF regularity of a perfectly periodic cycle is infinite (equal crossing
+    # intervals): the CLI writes strict JSON (allow_nan=False), so it reads null
+    c = CycleCheck(True, True, "reproduced", {"period": 60.0, "regularity": math.inf},
+                   {"period": 60.0, "regularity": math.inf}, {"period": 0.0})
+    d = json.loads(json.dumps(c.to_dict(), allow_nan=False))
+    assert d["recorded"]["regularity"] is None and d["recorded"]["period"] == 60.0
+    # a controller far too aggressive for the fitted process: the closed loop diverges
+    t = np.arange(3000.0)
+    pv, op = np.sin(2 * np.pi * t / 60.0), 50 + np.cos(2 * np.pi * t / 60.0)
+    c = check_cycle(pv, op, 1.0, F_HP, 3.0, 1.5, PROCESS, (20.0, 1.0))
+    assert c.applicable and not c.reproduced
+    assert c.reason == "the fitted loop is unstable with this controller"
+    json.dumps(c.to_dict(), allow_nan=False)

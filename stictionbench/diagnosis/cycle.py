@@ -80,10 +80,16 @@ class CycleCheck:
     controller: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
+        """The JSON form; a non-finite number (the regularity of a perfectly periodic
+        cycle is infinite) is ``None``, so the CLI's strict JSON can hold it."""
+        def finite(d: dict[str, Any]) -> dict[str, Any]:
+            return {k: None if isinstance(v, float) and not math.isfinite(v) else v
+                    for k, v in d.items()}
+
         return {"applicable": self.applicable, "reproduced": self.reproduced,
-                "reason": self.reason, "recorded": self.recorded,
-                "simulated": self.simulated, "log_ratios": self.log_ratios,
-                "controller": self.controller,
+                "reason": self.reason, "recorded": finite(self.recorded),
+                "simulated": finite(self.simulated), "log_ratios": finite(self.log_ratios),
+                "controller": finite(self.controller),
                 "tolerances": {"period": PERIOD_TOLERANCE, "amplitude": AMPLITUDE_TOLERANCE}}
 
 
@@ -216,10 +222,11 @@ def check_cycle(pv: np.ndarray, op: np.ndarray, Ts: float, f_hp: float, S: float
     spv, sop = closed_loop(S, J, K, tau, theta, kc, ti, Ts, n, 2.0 * K * S)
     half = slice(n // 2, n)
     ys, us = spv[half] - spv[half].mean(), sop[half] - sop[half].mean()
-    sim = None
-    if np.all(np.isfinite(ys)) and np.ptp(ys) > 1e-9 * max(rec["pv_amplitude"], 1e-300) \
-            and np.max(np.abs(ys)) < 1e6 * max(rec["pv_amplitude"], 1e-300):
-        sim = cycle_features(ys, us, Ts, amplitude)
+    scale = max(rec["pv_amplitude"], 1e-300)
+    if not (np.all(np.isfinite(ys)) and np.max(np.abs(ys)) < 1e6 * scale):
+        return CycleCheck(True, False, "the fitted loop is unstable with this controller",
+                          rec, controller=ctrl)
+    sim = cycle_features(ys, us, Ts, amplitude) if np.ptp(ys) > 1e-9 * scale else None
     if sim is None:
         return CycleCheck(True, False, "the fitted loop does not cycle by itself", rec,
                           controller=ctrl)
