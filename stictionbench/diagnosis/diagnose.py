@@ -42,7 +42,7 @@ from ..errors import InputError
 from ..op_range import infer_op_range
 from ..recording import Recording
 from .cycle import CycleCheck, check_cycle
-from .evidence import ALPHA, MIN_IMPROVEMENT, OWN_RESOLUTION, Verdict
+from .evidence import ALPHA, MIN_IMPROVEMENT, OWN_RESOLUTION, VALVE_HYPOTHESES, Verdict
 from .evidence import validate as _validate
 from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
 from .hammerstein import HammersteinResult, fit_hammerstein
@@ -70,8 +70,6 @@ __all__ = ["Diagnosis", "closed_loop_replay", "compare", "cycle_evidence", "diag
            "validate", "valve_output"]
 
 N_BLOCKS = 5
-#: hypotheses fitted by the closed-loop Hammerstein identification
-VALVE_HYPOTHESES = ("stiction", "deadband")
 
 
 def valve_output(name: str, p: np.ndarray, ctx: Context) -> np.ndarray:

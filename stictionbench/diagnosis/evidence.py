@@ -73,6 +73,12 @@ from .openloop import highpass
 #: are the out-of-sample estimate. (Output-error fits: the rule picked 0.001 and 0.1.)
 ALPHA = 0.05
 MIN_IMPROVEMENT = 0.1
+#: the nested valve family (stiction contains the dead band, ``J = 0``), fitted by the
+#: closed-loop Hammerstein identification and decided between by the slip-jump test
+VALVE_HYPOTHESES = ("stiction", "deadband")
+#: hypotheses whose practical significance is a resolution in their own parameter
+#: (:attr:`.Hypothesis.own_resolution`): the dead time
+OWN_RESOLUTION = frozenset(n for n, h in HYPOTHESES.items() if h.own_resolution)
 
 
 @dataclass
@@ -144,15 +150,13 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
              train: np.ndarray, val: np.ndarray, *, alpha: float,
              min_improvement: float, horizon: int = 1,
              cycle: CycleCheck | None = None,
-             own_resolution: frozenset[str] | None = None) -> Verdict:
+             own_resolution: frozenset[str] = OWN_RESOLUTION) -> Verdict:
     """Decide among fitted hypotheses (``fits["none"]`` is the nominal model) by
     prediction-error likelihood; see the module docstring. ``horizon`` (samples) adds
     the k-step-ahead test (the loop's time scale ``τ + θ``); ``cycle`` is the closed-loop
     cycle check of the identified valve (:mod:`.cycle`), reported under ``tests`` and
     passed to :func:`select`; ``own_resolution`` the hypotheses whose practical
-    significance is their own resolution (:func:`passes`; default
-    :data:`OWN_RESOLUTION`)."""
-    own = OWN_RESOLUTION if own_resolution is None else own_resolution
+    significance is their own resolution (:func:`passes`)."""
     oe = {name: output_error(ft, pv, Ts, f_hp) for name, ft in fits.items()}
     best = min(fits, key=lambda k: fits[k].cost_train)
     noise = fit_noise_model(oe[best][train])
@@ -180,14 +184,14 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
                "innovation_variance": var[name]["validation"],
                "parameters": ft.params, "at_bound": ft.at_bound}
         rows.append({**row, "significant": passes(row, alpha, min_improvement,
-                                                  own_resolution=own)})
+                                                  own_resolution=own_resolution)})
     tests: dict[str, Any] = {}
-    if {"stiction", "deadband"} <= set(fits):
+    if set(VALVE_HYPOTHESES) <= set(fits):
         tests["slip_jump_zero"] = _slip_jump_test(fits, var, train.size)
     if cycle is not None:
         tests["closed_loop_cycle"] = cycle.to_dict()
     pick = select(rows, tests.get("slip_jump_zero", {}).get("p_value"), alpha=alpha,
-                  min_improvement=min_improvement, own_resolution=own,
+                  min_improvement=min_improvement, own_resolution=own_resolution,
                   cycle_reproduced=bool(cycle is not None and cycle.reproduced))
     return Verdict(pick, _ranking(rows), _residual_tests(tests, rows, pick, e, op, Ts, f_hp,
                                                          noise, val), noise, e, var)
@@ -197,11 +201,6 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
 #: resolve against the model error of a discrete replay (set on the ``sim_physical``
 #: benchmark family, see ``experiments/concealed.py``)
 MIN_SLIP_FRACTION = 0.1
-
-
-#: hypotheses whose practical significance is a resolution in their own parameter
-#: (:attr:`.Hypothesis.own_resolution`): the dead time
-OWN_RESOLUTION = frozenset(n for n, h in HYPOTHESES.items() if h.own_resolution)
 
 
 def passes(row: dict[str, Any], alpha: float, min_improvement: float, *,
@@ -242,8 +241,7 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
            if passes(r, alpha, min_improvement, own_resolution=own_resolution)}
     pick = min((r for r in rows if r["physics"] in sig), key=_bic,
                default={"physics": "none"})["physics"]
-    valves = [r for r in rows if r["physics"] in sig and r["physics"] in ("stiction",
-                                                                          "deadband")]
+    valves = [r for r in rows if r["physics"] in sig and r["physics"] in VALVE_HYPOTHESES]
     if cycle_reproduced and valves:
         pick = min(valves, key=_bic)["physics"]
     # the nested pair is one family: once either member is named, the slip-jump test
@@ -252,7 +250,7 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
     # — and stiction must also beat the nominal model on its own likelihood-ratio test
     # (a dead band named while the stiction fit does not beat the nominal is not stiction,
     # however its training fit resolves J)
-    if pick in ("stiction", "deadband") and slip_jump_p is not None:
+    if pick in VALVE_HYPOTHESES and slip_jump_p is not None:
         row = next(r for r in rows if r["physics"] == "stiction")
         st = row["parameters"]
         big = st.get("J", 0.0) >= min_slip_fraction * st.get("S", 0.0)
