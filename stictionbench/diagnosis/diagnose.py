@@ -559,7 +559,7 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
         {"pv_nrmse": cl["pv_nrmse"], "op_nrmse": cl["op_nrmse"]},
         "hammerstein": None if ham is None else ham.to_dict(),
         "setpoint_excitation": setpoint_excitation(cmp.rec),
-        "dead_time_own_resolution": bool(own_resolution(cmp.rec, cmp.ctx.model_given)),
+        "dead_time_own_resolution": "dead_time" in verdict.own_resolution,
         "op_range": None if cmp.ctx.op_range is None else list(cmp.ctx.op_range),
         "seconds": None,
     }

@@ -91,6 +91,8 @@ class Verdict:
     noise: NoiseModel
     innovations: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     variances: dict[str, dict[str, float]] = field(default_factory=dict)
+    #: the hypotheses judged by their own resolution in this verdict (:func:`passes`)
+    own_resolution: frozenset[str] = OWN_RESOLUTION
 
 
 def output_error(fit: Fit, pv: np.ndarray, Ts: float, f_hp: float) -> np.ndarray:
@@ -194,7 +196,8 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
                   min_improvement=min_improvement, own_resolution=own_resolution,
                   cycle_reproduced=bool(cycle is not None and cycle.reproduced))
     return Verdict(pick, _ranking(rows), _residual_tests(tests, rows, pick, e, op, Ts, f_hp,
-                                                         noise, val), noise, e, var)
+                                                         noise, val), noise, e, var,
+                   own_resolution)
 
 
 #: a slip jump smaller than this fraction of S is below what sampled closed-loop data
