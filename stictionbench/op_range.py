@@ -36,7 +36,9 @@ def infer_op_range(op: np.ndarray) -> tuple[float, float] | None:
 
     Per cent when every sample lies in −5 … 105 and some exceed 1.05 (so it is not a
     fraction); a fraction when every sample lies in −0.05 … 1.05. In both cases the
-    median must exceed 1 % of the span: a mean-removed OP has its median near 0.
+    median must exceed 1 % of the span (a mean-removed OP has its median near 0), unless
+    OP never falls below the range's bottom and rises above that 1 % (a valve shut for
+    most of the record, which a signal centred on 0 cannot be).
     Anything else (milliamps, engineering units, mean-removed or normalised data) is
     unknown: give the range (``--op-range``, or ``op_range`` in the model YAML).
 
@@ -57,11 +59,18 @@ def infer_op_range(op: np.ndarray) -> tuple[float, float] | None:
     ((0.0, 100.0), (0.0, 1.0))
     >>> infer_op_range(np.array([-1.2, 0.1, 1.3])) is None  # mean-removed
     True
+    >>> infer_op_range(np.r_[np.zeros(80), np.linspace(0, 50, 20)])  # shut for most of it
+    (0.0, 100.0)
     """
     op = np.asarray(op, float)
     med = float(np.median(op))
     for span in (PERCENT, FRACTION):
-        if _within(op, span) and med > span[0] + MIN_MEDIAN * (span[1] - span[0]) and (
+        floor = span[0] + MIN_MEDIAN * (span[1] - span[0])
+        # off zero: the median above 1 % of the span, or an output clamped at the bottom
+        # of its range for most of the record (never below it, and moving above it): a
+        # mean-removed signal is centred on 0 and has samples on both sides of it
+        off_zero = med > floor or (op.min() >= span[0] and op.max() > floor)
+        if _within(op, span) and off_zero and (
                 span is FRACTION or op.max() > FRACTION[1] + OVERSHOOT):
             return span
     return None

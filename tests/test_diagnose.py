@@ -23,6 +23,7 @@ from stictionbench.diagnosis.locate import dominant_periods, tone_periods
 from stictionbench.diagnosis.noise import fit_noise_model, input_independence, ljung_box, lr_test
 from stictionbench.errors import InputError
 from stictionbench.io import write_recording
+from stictionbench.op_range import infer_op_range
 
 MODEL = "process: {gain: 3.0, time_constant: 10.0, dead_time: 10.0}\n" \
         "controller: {kc: 0.2, ti: 10.0}\nsample_time: 1.0\n"
@@ -808,3 +809,18 @@ def test_dead_time_own_resolution_only_against_a_given_model(stiction_rec):
     # and a delay more than a sample from it is not missing physics
     assert diagnose(stiction_rec, NOM).details["dead_time_own_resolution"] is True
     assert diagnose(stiction_rec).details["dead_time_own_resolution"] is False
+
+
+def test_op_range_recognised_for_a_valve_shut_most_of_the_record():
+    # an output clamped at 0 for most of the record has its median on the bottom of its
+    # range, like a mean-removed OP; it never falls below 0 (a signal centred on 0 does),
+    # so its units are still recognised and the valve characteristic can be tested
+    # (holdout_sync_L1_valve_characteristic_1004: OP at 0 for 81 % of the record)
+    rng = np.random.default_rng(5)
+    shut = np.r_[np.zeros(800), rng.uniform(0.0, 50.0, 200)]
+    assert np.median(shut) == 0.0
+    assert infer_op_range(shut) == (0.0, 100.0)
+    assert infer_op_range(shut / 100.0) == (0.0, 1.0)
+    centred = shut - shut.mean()
+    assert infer_op_range(centred) is None
+    assert infer_op_range(np.zeros(100)) is None  # never moves: nothing to recognise

@@ -365,7 +365,13 @@ class OscillatoryDisturbance(Hypothesis):
         # `none` recordings. Without a model the high-pass follows an identified τ + θ
         # that regulatory data can inflate a hundredfold, and T/2 named a random-walk
         # load an oscillation on ideal-valve loops (reports/diagnose/regulatory_bias.md
-        # and fast_loops.md: 3 and 4 more calls), so T/4 stays there.
+        # and fast_loops.md: 3 and 4 more calls), so T/4 stays there. Lifting the
+        # high-pass cap with a model (T/2 alone, the period grid kept 10 % dense) named
+        # none of the slow disturbances it would admit: 209 → 209 of 240 on the three
+        # families, 183 → 182 of 216 on the holdout family's seeds from 1000 (five level-1
+        # disturbances of periods 475–4426 s stay `none`), 168 → 167 of 192 on
+        # disturbance_band's recordings: after the high-pass such a line is too weak for
+        # the 10 % NRMSE gate, whatever the range searched.
         return self._slowest(ctx, 2 if ctx.model_given else 4)
 
     @staticmethod
