@@ -61,6 +61,7 @@ from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.evidence import (  # noqa: E402
     OWN_RESOLUTION,
     VALVE_HYPOTHESES,
+    failed_gates,
     select,
 )
 from stictionbench.io import atomic_directory, read_recording  # noqa: E402
@@ -163,30 +164,24 @@ def tune(df: pd.DataFrame) -> tuple[float, float]:
 def miss_reason(row: pd.Series, pick: str, alpha: float = DEFAULTS[0],
                 min_improvement: float = DEFAULTS[1]) -> str:
     """Why a recording of a physics class was not named that class, read from its stored
-    evidence with the rule of :func:`~stictionbench.diagnosis.evidence.passes`: the true
-    hypothesis's fit on the end of its search range, its p-value at or above ``alpha``,
-    its validation NRMSE improving by less than ``min_improvement`` (any improvement for a
-    hypothesis judged by its own resolution), or, when it passed all of these, what
-    beat it (another significant hypothesis of lower BIC, or the slip-jump test between
-    the two valve hypotheses)."""
+    evidence: the gates its true hypothesis failed
+    (:func:`~stictionbench.diagnosis.evidence.failed_gates`, the rule the diagnosis
+    applies) or, when it passed them all, what beat it (the closed-loop cycle check naming
+    a valve, the slip-jump test between the two valve hypotheses, or another significant
+    hypothesis of lower BIC)."""
     ev = {e["physics"]: e for e in json.loads(row["evidence"])}
     t = ev.get(row["class"])
     if t is None:
         return "not tested"
-    own = row.get("dead_time_own_resolution", True) and row["class"] in OWN_RESOLUTION
-    gate = 0.0 if own else min_improvement
-    why = []
-    if t["at_bound"]:
-        why.append("fit on the end of its search range")
-    if t["p_value"] >= alpha:
-        why.append(f"p ≥ {alpha:g}")
-    short = t["improvement"] <= 0.0 if own else t["improvement"] < gate
-    if short:
-        why.append(f"NRMSE improvement < {gate:.0%}" if gate else "no NRMSE improvement")
+    own = OWN_RESOLUTION if row.get("dead_time_own_resolution", True) else frozenset()
+    why = failed_gates(t, alpha, min_improvement, own_resolution=own)
     if why:
         return " + ".join(why)
-    pair = {row["class"], pick} <= set(VALVE_HYPOTHESES)
-    return "slip-jump test" if pair else f"{pick} of lower BIC"
+    if {row["class"], pick} <= set(VALVE_HYPOTHESES):
+        return "slip-jump test"
+    if pick in VALVE_HYPOTHESES and bool(row.get("cycle_reproduced", False)):
+        return f"{pick} named by the cycle check"
+    return f"{pick} of lower BIC"
 
 
 def parameter_error(df: pd.DataFrame, pred: pd.Series) -> pd.Series:

@@ -17,7 +17,7 @@ import stictionbench as sb
 from stictionbench.cli import main
 from stictionbench.diagnosis import VOCABULARY, NominalModel, diagnose
 from stictionbench.diagnosis.diagnose import compare, fit, hypothesise, locate, validate
-from stictionbench.diagnosis.evidence import select
+from stictionbench.diagnosis.evidence import failed_gates, passes, select
 from stictionbench.diagnosis.hypotheses import HYPOTHESES, Context
 from stictionbench.diagnosis.locate import dominant_periods, tone_periods
 from stictionbench.diagnosis.noise import fit_noise_model, input_independence, ljung_box, lr_test
@@ -373,6 +373,23 @@ def test_independence_from_op_is_calibrated_under_feedback():
     e = rng.normal(size=1500)
     u = lfilter([1.0], [1.0, -0.95], rng.normal(size=1500))
     assert input_independence(e + 0.1 * np.r_[0.0, 0.0, u[:-2]], u)["p_value"] < 1e-3
+
+
+def test_failed_gates_name_what_passes_rejects():
+    row = {"physics": "deadband", "p_value": 0.2, "improvement": 0.04, "at_bound": False}
+    assert failed_gates(row, 0.05, 0.1) == ["p ≥ 0.05", "NRMSE improvement < 10%"]
+    assert not passes(row, 0.05, 0.1)
+    row |= {"p_value": 0.01, "improvement": 0.2}
+    assert failed_gates(row, 0.05, 0.1) == [] and passes(row, 0.05, 0.1)
+    # a dead time is judged by its own resolution: any improvement, unless on its bound
+    dt = {"physics": "dead_time", "p_value": 0.01, "improvement": 0.01, "at_bound": False}
+    assert passes(dt, 0.05, 0.1)
+    assert failed_gates(dt, 0.05, 0.1, own_resolution=frozenset()) == [
+        "NRMSE improvement < 10%"]
+    assert failed_gates(dt | {"at_bound": True}, 0.05, 0.1) == [
+        "fit on the end of its search range"]
+    assert failed_gates({"physics": "none", "p_value": 1.0, "improvement": 0.0},
+                        0.05, 0.1) == ["the nominal model"]
 
 
 def test_select_rule_nested_and_thresholds():

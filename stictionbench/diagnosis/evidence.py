@@ -208,18 +208,34 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
 MIN_SLIP_FRACTION = 0.1
 
 
+def failed_gates(row: dict[str, Any], alpha: float, min_improvement: float, *,
+                 own_resolution: frozenset[str] = OWN_RESOLUTION) -> list[str]:
+    """The gates of :func:`passes` one hypothesis's row fails, in words (empty when it is
+    significant): its fit on an end of a search-limited range (``at_bound``), its p-value
+    at or above ``alpha``, its validation NRMSE improving by less than
+    ``min_improvement`` — or, for a hypothesis in ``own_resolution``, not at all (its
+    ``at_bound`` already withholds the effects the data do not resolve: a dead time
+    within one sample of the nominal). The nominal model itself is never significant."""
+    if row["physics"] == "none":
+        return ["the nominal model"]
+    why = []
+    if row.get("at_bound", False):
+        why.append("fit on the end of its search range")
+    if row["p_value"] >= alpha:
+        why.append(f"p ≥ {alpha:g}")
+    if row["physics"] in own_resolution:
+        if row["improvement"] <= 0.0:
+            why.append("no NRMSE improvement")
+    elif row["improvement"] < min_improvement:
+        why.append(f"NRMSE improvement < {min_improvement:.0%}")
+    return why
+
+
 def passes(row: dict[str, Any], alpha: float, min_improvement: float, *,
            own_resolution: frozenset[str] = OWN_RESOLUTION) -> bool:
-    """Whether one hypothesis's row is significant: its p-value below ``alpha``, its fit
-    not on an end of a search-limited range (``at_bound``), and its validation NRMSE
-    improved by at least ``min_improvement`` — or, for a hypothesis in
-    ``own_resolution``, improved at all (its ``at_bound`` already withholds the effects
-    the data do not resolve: a dead time within one sample of the nominal)."""
-    if row["physics"] == "none" or row["p_value"] >= alpha or row.get("at_bound", False):
-        return False
-    if row["physics"] in own_resolution:
-        return row["improvement"] > 0.0
-    return row["improvement"] >= min_improvement
+    """Whether one hypothesis's row is significant: it fails none of the gates of
+    :func:`failed_gates`."""
+    return not failed_gates(row, alpha, min_improvement, own_resolution=own_resolution)
 
 
 def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: float,
