@@ -20,7 +20,7 @@ sticky valves, the median relative error of the S and J of the closed-loop valve
 identification whatever the verdict (is the valve found at all?). Nothing is tuned here.
 
 A second check asks whether the slip jump is in the sampled signals at all. For every
-sticky valve, Kano's sampled two-parameter model (both stop rules of the
+sticky valve, the sampled two-parameter model (every stop rule of the
 identification) is fitted by least squares to the *true* valve position MV, recorded at
 1 s, from the recorded OP: no process, no measurement noise, no load. If even this fit
 finds ``J`` near 0 (below :data:`stictionbench.diagnosis.evidence.MIN_SLIP_FRACTION` of
@@ -49,8 +49,7 @@ from fast_loops import parse_args, run_loops  # noqa: E402
 
 from stictionbench.diagnosis import diagnose  # noqa: E402
 from stictionbench.diagnosis.evidence import MIN_SLIP_FRACTION  # noqa: E402
-from stictionbench.diagnosis.hammerstein import STOP_RULES  # noqa: E402
-from stictionbench.diagnosis.openloop import stiction_valve  # noqa: E402
+from stictionbench.diagnosis.hammerstein import STOP_RULES, rule_valve  # noqa: E402
 from stictionbench.io import write_text  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
@@ -64,17 +63,16 @@ DEFAULT_PERIOD = {"sim_physical": 0.2, "sim_he": 0.5}
 
 
 def valve_from_mv(op: np.ndarray, mv: np.ndarray, burn: int = 200) -> dict[str, float]:
-    """Kano's sampled stick-slip model fitted to the true valve position: a grid over
+    """The sampled stick-slip model fitted to the true valve position: a grid over
     ``S`` (2–40 % of OP's span, 40 points), ``J/S`` (0–1.4, 29 points) and the stop rule,
     least squares on ``mv`` after ``burn`` samples with the offset removed. Returns the
     best ``S``, ``J``, stop rule and RMS error."""
     span = float(np.ptp(op)) or 1.0
     best = (np.inf, 0.0, 0.0, 0)
     for rule in range(len(STOP_RULES)):
-        delta = 0.0 if rule == 0 else np.inf
         for S in np.geomspace(0.02 * span, 0.4 * span, 40):
             for j in np.linspace(0.0, 1.4, 29):
-                e = (mv - stiction_valve(op, float(S), float(j * S), delta))[burn:]
+                e = (mv - rule_valve(op, float(S), float(j * S), rule))[burn:]
                 c = float(np.var(e))
                 if c < best[0]:
                     best = (c, float(S), float(j * S), rule)
@@ -139,7 +137,8 @@ def findings(df: pd.DataFrame) -> list[str]:
             f"{rate_text(int((slow.diagnosis == 'stiction').sum()), len(slow))} with the PI at "
             "the historian's rate (same recordings otherwise)."]
     if "mv_J" in st:
-        out += ["", "Is the slip jump in the sampled signals? Kano's sampled model fitted to "
+        out += ["", "Is the slip jump in the sampled signals? The sampled two-parameter model "
+                "(every stop rule of the identification) fitted to "
                 "the true valve position MV at 1 s (no process, noise or load):", ""]
         for what, x in (("PI faster than the historian", fast), ("PI every 1 s", slow)):
             flat = int((x.mv_J < MIN_SLIP_FRACTION * x.mv_S).sum())

@@ -7,8 +7,10 @@ import pytest
 
 import stictionbench as sb
 from stictionbench.diagnosis.hammerstein import HammersteinResult, fit_hammerstein
+from stictionbench.diagnosis.openloop import stiction_valve
 from stictionbench.errors import InputError
 from stictionbench.recording import Recording
+from stictionbench.sim.valves import ChoudhuryValve, KanoValve, respond
 
 
 def _rec(valve: str, seed: int = 3, **ov) -> Recording:
@@ -82,3 +84,55 @@ def test_constant_op_is_input_error():
     rec = Recording.from_arrays(t=t, PV=np.sin(t / 10), OP=np.full(500, 40.0))
     with pytest.raises(InputError, match="constant"):
         fit_hammerstein(rec)
+
+
+def test_choudhury_restart_is_the_simulators_choudhury_valve():
+    rng = np.random.default_rng(1)
+    op = 50.0 + 10.0 * np.sin(np.arange(3000) / 80.0) + rng.normal(0.0, 0.4, 3000)
+    op[1000:1200] = np.round(op[1000:1200])  # quantised: OP halts as well as reverses
+    for valve, choudhury in ((ChoudhuryValve(S=3.0, J=1.0), True),
+                             (KanoValve(S=3.0, J=1.0), False)):
+        # the replay and the simulator agree once both have left their initial rest
+        np.testing.assert_array_equal(stiction_valve(op, 3.0, 1.0, 0.0, choudhury)[100:],
+                                      respond(valve, op)[100:])
+    # under a jittering OP Choudhury's valve advances in steps of about S, Kano's of J
+    steps = {ch: np.abs(np.diff(stiction_valve(op, 3.0, 1.0, 0.0, ch))) for ch in (True, False)}
+    assert np.median(steps[True][steps[True] > 0]) == pytest.approx(3.0, rel=0.15)
+    assert np.median(steps[False][steps[False] > 0]) < 1.5
+
+
+def test_choudhury_valve_identified_with_its_restart_rule_against_a_given_model():
+    # with Kano's restart only, this valve was read as S 3.3, J 0.93 and the valve model
+    # halved the linear loop's validation error; with the rule, S and J are recovered
+    rec = _rec("choudhury", valve__S=4.0, valve__J=1.5)
+    r = fit_hammerstein(rec, linear=(3.0, 10.0, 10.0), fix_process=True)
+    assert r.stop_rule == "choudhury" and r.stiction
+    assert r.S == pytest.approx(4.0, rel=0.1)
+    assert r.J == pytest.approx(1.5, rel=0.2)
+    assert r.J_interval[0] > 0.0
+    assert r.fit["valve"] < 0.2 * r.fit["linear"]
+    # without a model the process is re-identified and the rule is not searched
+    assert fit_hammerstein(rec).stop_rule != "choudhury"
+
+
+def test_kano_valve_under_a_faster_pi_stays_stiction_with_choudhurys_rule_searched():
+    # a Kano valve (S 4, J 2) in a fast loop (τ 2 s, θ 1 s) whose PI executes every 0.2 s
+    # (reports/diagnose/fast_loops.md): with the stop rule chosen by the output error,
+    # Choudhury's restart at J = 0 won and the valve was named a dead band; the rule is
+    # now chosen by the innovations and Choudhury's restart needs a slip jump
+    from stictionbench.diagnosis import diagnose
+    from stictionbench.diagnosis.model import NominalModel
+
+    tau, theta = 2.0, 1.0
+    kc, ti = tau / (2 * theta), tau
+    ov = ["process.gain=1.0", f"process.time_constant={tau}", f"process.dead_time={theta}",
+          f"controller.kc={kc}", f"controller.ti={ti}", "controller.sample_time=0.2",
+          "sensor=noisy", "sensor.time_constant=0.0", "sensor.noise_std=0.1",
+          "disturbance=load", "disturbance.load_std=2.0", "disturbance.load_time_constant=300.0",
+          "setpoint=constant", "valve=kano", "valve.S=4.0", "valve.J=2.0"]
+    sim = sb.simulate("linear", duration=3000.0, seed=0, sample_time=1.0, overrides=ov)
+    rec = Recording.from_arrays(sim.t, sim.PV, sim.OP, SP=sim.SP, warn=False)
+    d = diagnose(rec, NominalModel(1.0, tau, theta, kc, ti, 1.0))
+    h = d.details["hammerstein"]
+    assert d.missing_physics == "stiction"
+    assert h["J"] >= 0.1 * h["S"]

@@ -360,7 +360,7 @@ def _valve_fits(cmp: Comparison, names: tuple[str, ...], h: HammersteinResult,
     # whose process contradicts the linear loop's (gain sign, τ on its bound) is not one
     gate = (h.tests["valve_vs_linear"]["p_value"] if h.consistent else 1.0) if free else None
     if "stiction" in names:
-        code = 0 if h.stop_rule == "reversal" else 2
+        code = HYPOTHESES["stiction"].STOP_RULES.index(h.stop_rule)
         ft = fit_at(prob_h, HYPOTHESES["stiction"], [max(h.S, 1e-3 * c.op_unit), h.J, code])
         ft.intervals = {"S": h.S_interval, "J": h.J_interval}
         ft.n_params += 2 * free

@@ -44,15 +44,46 @@ from scipy.stats import chi2
 
 from ..errors import InputError
 from ..recording import Recording
+from .evidence import MIN_SLIP_FRACTION
 from .noise import WHITE, NoiseModel, fit_noise_model, input_independence, ljung_box, lr_test
 from .openloop import fopdt_biquad, fopdt_coefficients, stiction_valve
 from .process import fit_fopdt
 
 #: stop rules of the sampled stick-slip valve (see :func:`.openloop.stiction_valve`):
 #: stop only when OP reverses (Kano), or at every sample (a valve driven by a noisy
-#: controller output, whose OP reverses between two recorded samples)
-STOP_RULES = ("reversal", "every_sample")
+#: controller output, whose OP reverses between two recorded samples), or on reversals
+#: with Choudhury et al.'s (2005) restart: after a reversal ``S`` either way, not ``J``
+STOP_RULES = ("reversal", "every_sample", "choudhury")
+CHOUDHURY = STOP_RULES.index("choudhury")
+#: Choudhury's restart is searched with ``J ≥ CHOUDHURY_MIN_SLIP·S`` only: at ``J = 0`` the
+#: two-parameter model is a dead band by its own definition (Choudhury et al. 2005), and
+#: the dead band the diagnosis tests is the play operator (the other rules' ``J = 0``),
+#: not a valve that, under a jittering OP, advances in steps of ``S``. The floor is
+#: :data:`.evidence.MIN_SLIP_FRACTION`, the resolution below which a fitted slip jump is
+#: called a dead band anyway
+CHOUDHURY_MIN_SLIP = MIN_SLIP_FRACTION
+
+
+def searched_rules(process_held: bool) -> tuple[int, ...]:
+    """The stop rules searched: Choudhury's restart only with the process held at a
+    given model (see :func:`fit_hammerstein`)."""
+    return tuple(r for r in range(len(STOP_RULES)) if process_held or r != CHOUDHURY)
+
+
 N_BLOCKS = 5
+
+
+def _j_floor(rule: int) -> float:
+    """The least ``J/S`` searched with a stop rule (:data:`CHOUDHURY_MIN_SLIP`)."""
+    return CHOUDHURY_MIN_SLIP if rule == CHOUDHURY else 0.0
+
+
+def rule_valve(op: np.ndarray, S: float, J: float, rule: int) -> np.ndarray:
+    """The sampled stick-slip valve of stop rule ``STOP_RULES[rule]`` driven by ``op``
+    (:func:`.openloop.stiction_valve`)."""
+    name = STOP_RULES[rule]
+    return stiction_valve(op, S, J, math.inf if name == "every_sample" else 0.0,
+                          name == "choudhury")
 #: high-pass cut-off in units of 1/(2π(τ+θ)) of the linear loop (slow-load rejection)
 HP_FACTOR = 0.3
 
@@ -131,8 +162,7 @@ class _Criterion:
     def valve(self, S: float, J: float, rule: int) -> np.ndarray:
         if S <= 0:
             return self.op
-        delta = 0.0 if rule == 0 else math.inf
-        return stiction_valve(self.op, S, min(max(J, 0.0), 1.5 * S), delta)
+        return rule_valve(self.op, S, min(max(J, 0.0), 1.5 * S), rule)
 
     def regressor(self, mv: np.ndarray, tau: float, theta: float) -> np.ndarray:
         """High-passed unit-gain FOPDT response to the valve output ``mv``."""
@@ -241,8 +271,8 @@ def _valve_grid(crit: _Criterion, tau0: float, theta0: float) -> list[tuple[floa
     ``0.08 τ`` lies above twice the sample time."""
     Ss = np.geomspace(0.01 * crit.span, 0.8 * crit.span, 24)
     js = (0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 0.9, 1.1, 1.3)
-    valves = [(float(S), float(j * S), rule) for rule in range(len(STOP_RULES))
-              for S in Ss for j in js]
+    valves = [(float(S), float(j * S), rule) for rule in searched_rules(crit.fixed)
+              for S in Ss for j in js if j >= _j_floor(rule)]
     if crit.fixed:
         # a given model: only the recording convention (OP stored before or after the
         # controller executed, ±1 sample of dead time) is left open
@@ -269,7 +299,7 @@ def _scan(crit: _Criterion, p: tuple) -> tuple[float, tuple]:
     rugged in ``J`` (a slip one sample early shifts the whole cycle)."""
     S, _, rule, tau, theta = p
     valves = [(float(s), float(j * s), rule) for s in S * np.geomspace(0.7, 1.4, 11)
-              for j in np.linspace(0.0, 1.4, 29)]
+              for j in np.linspace(_j_floor(rule), 1.4, 29)]
     return _batch(crit, valves, [(tau, theta)])[0]
 
 
@@ -292,7 +322,7 @@ def _refine(crit: _Criterion, p0: tuple, tau0: float, theta0: float) -> tuple[fl
     if crit.fixed:
         def unpack2(z):
             S = _exp_within(z[0], 1e-3 * crit.span, 1.2 * crit.span)
-            return (S, min(max(z[1], 0.0), 1.5) * S, rule, p0[3], p0[4])
+            return (S, min(max(z[1], _j_floor(rule)), 1.5) * S, rule, p0[3], p0[4])
         z0 = np.array([math.log(p0[0]), p0[1] / p0[0]])
         fun, z = _nelder_mead(crit, lambda z: crit.cost(*unpack2(z)), z0, (0.3, 0.25), 120)
         return fun, unpack2(z)
@@ -301,7 +331,7 @@ def _refine(crit: _Criterion, p0: tuple, tau0: float, theta0: float) -> tuple[fl
 
     def unpack(z):
         S = _exp_within(z[0], slo, shi)
-        return (S, min(max(z[1], 0.0), 1.5) * S, rule,
+        return (S, min(max(z[1], _j_floor(rule)), 1.5) * S, rule,
                 _exp_within(z[2], tlo, thi), min(max(z[3] * crit.Ts, dlo), dhi))
 
     # θ in sample times: the search does not depend on the unit of time
@@ -332,11 +362,13 @@ def _profile(crit: _Criterion, p: tuple, v_min: float, which: str,
         # the criterion is rugged: the other parameter by a dense batched scan (and its
         # estimate, a candidate of the minimum) rather than a local search
         if which == "J":
-            valves = [(float(x), v, rule) for x in
+            # below Choudhury's slip floor the valve is the dead band (Kano's rule at J
+            # = 0, the play operator) and the slips between (:data:`CHOUDHURY_MIN_SLIP`)
+            valves = [(float(x), v, rule if v >= _j_floor(rule) * x else 0) for x in
                       np.r_[S, max(S, v / 1.5) * np.geomspace(0.7, 1.45, 48)]]
         else:
-            valves = [(v, float(x), rule) for x in np.r_[min(J, 1.5 * v),
-                                                       np.linspace(0.0, 1.5 * v, 48)]]
+            valves = [(v, float(x), rule if x >= _j_floor(rule) * v else 0)
+                      for x in np.r_[min(J, 1.5 * v), np.linspace(0.0, 1.5 * v, 48)]]
         best = _batch(crit, valves, [(tau, theta)])[0][0]
         return n * math.log(max(best, 1e-300) / v_min)
 
@@ -393,7 +425,15 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
         A known linear process to start from (otherwise identified output-error).
     fix_process : bool
         Hold ``τ`` and ``θ`` at ``linear`` (up to a ±1 sample recording shift of ``θ``):
-        the valve alone is identified against a nominal model the user gave.
+        the valve alone is identified against a nominal model the user gave. Only then
+        is Choudhury's restart searched as a third stop rule and the rule chosen by the
+        innovations. Without a model every rule comes with its own re-identified
+        process, and both additions moved verdicts by trading the valve against the
+        process: on simulated Kano valves under a PI faster than the historian
+        (``reports/diagnose/fast_loops.md``, model-free: sticky valves named stiction
+        33 → 26 of 84) and on ISDB CHEM23 (stiction, S 25.2 and J 4.75 → a dead band:
+        the every-sample rule with J 0.35). That choice was made on those recordings
+        (in-sample for them).
 
     Returns
     -------
@@ -419,18 +459,25 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
     #    joint refinement of valve and process
     _, tau_l, theta_l = _linear(crit, tau0, theta0)
     grid = _valve_grid(crit, tau_l, theta_l)
-    best = (math.inf, ())
-    for _, q in _seeds(grid, 3):
+    per_rule: dict[int, tuple[float, tuple]] = {}  # the best valve of every stop rule
+    for _, q in _seeds(grid, len(searched_rules(crit.fixed)) + 1):
         _, q = _refine(crit, q, tau_l, theta_l)
-        best = min(best, _refine(crit, _scan(crit, q)[1], tau_l, theta_l), key=lambda e: e[0])
-    p = best[1]
+        e = _refine(crit, _scan(crit, q)[1], tau_l, theta_l)
+        if e[0] < per_rule.get(e[1][2], (math.inf,))[0]:
+            per_rule[e[1][2]] = e
+    p = min(per_rule.values(), key=lambda e: e[0])[1]
     # 2. the noise model of the larger (valve) model's output error — an oscillation the
     #    linear model leaves unexplained must not be absorbed into H — then both models
-    #    refined under it (prediction-error method with H fixed)
+    #    refined under it (prediction-error method with H fixed). With the process held,
+    #    every stop rule's valve is refined and the rule chosen by the criterion it is
+    #    tested with (the output error can prefer another rule than the innovations do);
+    #    with the process re-identified, the output error's rule is refined alone
     _, sim, _ = crit.simulate(*p)
     crit.set_noise(fit_noise_model((crit.y - sim)[crit.train]))
     v_lin, tau_l, theta_l = _linear(crit, *((tau0, theta0) if crit.fixed else (tau_l, theta_l)))
-    v_valve, p = _refine(crit, p, tau_l, theta_l)
+    candidates = [q for _, q in per_rule.values()] if crit.fixed else [p]
+    v_valve, p = min((_refine(crit, q, tau_l, theta_l) for q in candidates),
+                     key=lambda e: e[0])
     if v_valve > v_lin:  # the linear loop is the S → 0 limit of the valve
         v_valve, p = v_lin, (0.0, 0.0, 0, tau_l, theta_l)
     return _result(rec, crit, p, v_valve, v_lin, (tau_l, theta_l), alpha, t0)

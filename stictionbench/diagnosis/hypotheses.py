@@ -170,16 +170,18 @@ class Stiction(Hypothesis):
     :func:`~.openloop.stiction_valve` for sampled data: stop only on OP reversals
     (Kano), stop when OP advanced less than its median absolute step, or stop after
     every sample (what a valve driven by a noisy controller output does between two
-    recorded samples). It is chosen by the fit and counted as a parameter.
+    recorded samples), or stop on reversals and restart as Choudhury et al. (2005) do
+    (``S`` either way after a reversal). It is chosen by the fit and counted as a
+    parameter.
     """
 
     name = "stiction"
     params = ("S", "J")
-    STOP_RULES = ("reversal", "slow", "every_sample")
+    STOP_RULES = ("reversal", "slow", "every_sample", "choudhury")
 
     def _delta(self, ctx, code):
         code = int(round(code))
-        if code == 0:
+        if code in (0, 3):
             return 0.0
         if code == 1:
             return float(np.median(np.abs(np.diff(ctx.op))))
@@ -189,9 +191,13 @@ class Stiction(Hypothesis):
         span, u = ctx.op_span, ctx.op_unit
         # the cost is rugged in (S, J) (a slip one sample early shifts the whole cycle):
         # a dense coarse grid before the local refinement
+        from .hammerstein import CHOUDHURY_MIN_SLIP  # (it imports this module)
+
         Ss = np.geomspace(0.05 * u, max(0.1 * u, 0.9 * span), 30)
-        return [np.array([s, f * s, m]) for m in (0, 1, 2) for s in Ss
-                for f in (0.0, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.25)]
+        floor = {self.STOP_RULES.index("choudhury"): CHOUDHURY_MIN_SLIP}
+        return [np.array([s, f * s, m]) for m in range(len(self.STOP_RULES)) for s in Ss
+                for f in (0.0, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.25)
+                if f >= floor.get(m, 0.0)]
 
     def bounds(self, ctx):
         span, u = ctx.op_span, ctx.op_unit
@@ -199,7 +205,7 @@ class Stiction(Hypothesis):
 
     def valve_output(self, ctx, p):
         return stiction_valve(ctx.op, float(p[0]), float(min(p[1], 1.5 * p[0])),
-                              self._delta(ctx, p[2]))
+                              self._delta(ctx, p[2]), int(round(p[2])) == 3)
 
     def n_params(self) -> int:
         return 4

@@ -95,12 +95,20 @@ def first_order_lag(y: np.ndarray, Ts: float, tau: float) -> np.ndarray:
 
 
 @njit(cache=True)
-def stiction_valve(op, S, J, delta=0.0):
+def stiction_valve(op, S, J, delta=0.0, choudhury=False):
     """Kano et al. (2004) two-parameter stiction model on an OP sequence (% of span).
 
     The valve stops when the OP velocity changes sign or vanishes; from rest it moves
     after a reversal once OP has travelled more than ``S`` from where it stopped, or, in
     the same direction, more than ``J``. While moving, ``MV = OP − d·(S − J)/2``.
+
+    ``choudhury`` gives the restart rule of Choudhury, Thornhill & Shah (2005) (as
+    :class:`stictionbench.sim.valves.ChoudhuryValve` implements it): a valve stopped by
+    a reversal of OP — or whose OP reversed while it was stuck — needs ``S`` to break
+    away in *either* direction; only a valve that stopped because OP halted restarts
+    after ``J`` the way it was going. Under a jittering OP, which reverses at almost
+    every sample, such a valve advances in steps of about ``S`` where Kano's advances
+    in steps of ``J``.
 
     ``delta`` (≥ 0, % per sample) generalises the stop rule for sampled data: the valve
     also stops when OP advanced by no more than ``delta`` in the direction of motion
@@ -116,12 +124,16 @@ def stiction_valve(op, S, J, delta=0.0):
     d = 0.0
     stp = 1
     du_prev = 0.0
+    armed = False  # Choudhury: the full band S armed in both directions
     for k in range(n):
         u = op[k]
         du = u - op[k - 1] if k > 0 else 0.0
         if stp == 0 and (du * du_prev <= 0.0 or d * du <= delta):
             stp = 1
             us = op[k - 1]
+            armed = du * du_prev < 0.0
+        elif stp == 1 and du * du_prev < 0.0:
+            armed = True  # OP reversed while the valve was stuck
         if stp == 1:
             if d == 0.0:
                 # first movement from the initial rest: either direction needs S/2 ... J
@@ -133,7 +145,7 @@ def stiction_valve(op, S, J, delta=0.0):
                 d = -d
                 stp = 0
                 y = u - d * (S - J) * 0.5
-            elif d * (u - us) > J:
+            elif d * (u - us) > (S if choudhury and armed else J):
                 stp = 0
                 y = u - d * (S - J) * 0.5
         else:
