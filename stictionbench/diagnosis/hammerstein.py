@@ -62,15 +62,15 @@ CHOUDHURY = STOP_RULES.index("choudhury")
 #: :data:`.evidence.MIN_SLIP_FRACTION`, the resolution below which a fitted slip jump is
 #: called a dead band anyway
 CHOUDHURY_MIN_SLIP = MIN_SLIP_FRACTION
+N_BLOCKS = 5
+#: high-pass cut-off in units of 1/(2π(τ+θ)) of the linear loop (slow-load rejection)
+HP_FACTOR = 0.3
 
 
 def searched_rules(process_held: bool) -> tuple[int, ...]:
     """The stop rules searched: Choudhury's restart only with the process held at a
     given model (see :func:`fit_hammerstein`)."""
     return tuple(r for r in range(len(STOP_RULES)) if process_held or r != CHOUDHURY)
-
-
-N_BLOCKS = 5
 
 
 def _j_floor(rule: int) -> float:
@@ -84,8 +84,6 @@ def rule_valve(op: np.ndarray, S: float, J: float, rule: int) -> np.ndarray:
     name = STOP_RULES[rule]
     return stiction_valve(op, S, J, math.inf if name == "every_sample" else 0.0,
                           name == "choudhury")
-#: high-pass cut-off in units of 1/(2π(τ+θ)) of the linear loop (slow-load rejection)
-HP_FACTOR = 0.3
 
 
 @dataclass

@@ -179,13 +179,14 @@ class Stiction(Hypothesis):
     params = ("S", "J")
     STOP_RULES = ("reversal", "slow", "every_sample", "choudhury")
 
+    def _rule(self, code) -> str:
+        return self.STOP_RULES[int(round(code))]
+
     def _delta(self, ctx, code):
-        code = int(round(code))
-        if code in (0, 3):
-            return 0.0
-        if code == 1:
+        rule = self._rule(code)
+        if rule == "slow":
             return float(np.median(np.abs(np.diff(ctx.op))))
-        return math.inf
+        return math.inf if rule == "every_sample" else 0.0
 
     def grid(self, ctx):
         span, u = ctx.op_span, ctx.op_unit
@@ -194,10 +195,9 @@ class Stiction(Hypothesis):
         from .hammerstein import CHOUDHURY_MIN_SLIP  # (it imports this module)
 
         Ss = np.geomspace(0.05 * u, max(0.1 * u, 0.9 * span), 30)
-        floor = {self.STOP_RULES.index("choudhury"): CHOUDHURY_MIN_SLIP}
-        return [np.array([s, f * s, m]) for m in range(len(self.STOP_RULES)) for s in Ss
+        return [np.array([s, f * s, m]) for m, rule in enumerate(self.STOP_RULES) for s in Ss
                 for f in (0.0, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.25)
-                if f >= floor.get(m, 0.0)]
+                if rule != "choudhury" or f >= CHOUDHURY_MIN_SLIP]
 
     def bounds(self, ctx):
         span, u = ctx.op_span, ctx.op_unit
@@ -205,7 +205,7 @@ class Stiction(Hypothesis):
 
     def valve_output(self, ctx, p):
         return stiction_valve(ctx.op, float(p[0]), float(min(p[1], 1.5 * p[0])),
-                              self._delta(ctx, p[2]), int(round(p[2])) == 3)
+                              self._delta(ctx, p[2]), self._rule(p[2]) == "choudhury")
 
     def n_params(self) -> int:
         return 4
@@ -214,7 +214,7 @@ class Stiction(Hypothesis):
         return {"S": float(p[0]), "J": float(p[1])}
 
     def extra(self, p):
-        return {"stop_rule": self.STOP_RULES[int(round(p[2]))]}
+        return {"stop_rule": self._rule(p[2])}
 
 
 class Deadband(Hypothesis):
