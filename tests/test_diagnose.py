@@ -841,3 +841,25 @@ def test_op_range_recognised_for_a_valve_shut_most_of_the_record():
     centred = shut - shut.mean()
     assert infer_op_range(centred) is None
     assert infer_op_range(np.zeros(100)) is None  # never moves: nothing to recognise
+
+
+def test_hp_factor_reaches_the_valve_identification(monkeypatch, stiction_rec):
+    """``diagnose(hp_factor=…)`` high-passes the valve identification like the other
+    hypotheses (it used to keep the module's 0.3 whatever was asked)."""
+    dmod = importlib.import_module("stictionbench.diagnosis.diagnose")
+    seen = []
+    real = dmod.fit_hammerstein
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("hp_factor"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(dmod, "fit_hammerstein", spy)
+    diagnose(stiction_rec, NOM, hp_factor=0.1, hypotheses=("stiction", "deadband"))
+    assert seen == [0.1]
+
+
+def test_hammerstein_rejects_a_non_positive_hp_factor(stiction_rec):
+    from stictionbench.diagnosis.hammerstein import fit_hammerstein
+    with pytest.raises(InputError, match="hp_factor"):
+        fit_hammerstein(stiction_rec, hp_factor=0.0)

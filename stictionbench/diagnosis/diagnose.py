@@ -45,7 +45,7 @@ from .cycle import CycleCheck, check_cycle
 from .evidence import ALPHA, MIN_IMPROVEMENT, OWN_RESOLUTION, VALVE_HYPOTHESES, Verdict
 from .evidence import validate as _validate
 from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
-from .hammerstein import HammersteinResult, fit_hammerstein
+from .hammerstein import HP_FACTOR, HammersteinResult, fit_hammerstein
 from .hypotheses import HYPOTHESES, Context, Nominal, lowpass_corner
 from .locate import (
     dominant_periods,
@@ -134,6 +134,9 @@ class Comparison:
     nominal: Fit
     #: refit every hypothesis by its one-step prediction errors (:func:`fit`)
     pem: bool = True
+    #: the slow-load high-pass as a fraction of ``1/(2π(τ+θ))``, shared by the
+    #: hypotheses' fits and the valve identification (:func:`_identify_valve`)
+    hp_factor: float = HP_FACTOR
 
 
 @dataclass
@@ -193,7 +196,8 @@ def _fit_aligned(cmp_prob: Problem, h, shifts: list[float]) -> Fit:
     return best
 
 
-def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: float = 0.3,
+def compare(rec: Recording, model: NominalModel | None = None, *,
+            hp_factor: float = HP_FACTOR,
             lp_factor: float = 5.0, pem: bool = True,
             op_range: tuple[float, float] | None = None) -> Comparison:
     """Stage 1: the nominal model (given, or identified FOPDT) replayed from the recorded
@@ -237,7 +241,7 @@ def compare(rec: Recording, model: NominalModel | None = None, *, hp_factor: flo
     shifts = [s for s in (s0, s0 - 0.5 * Ts, s0 + 0.5 * Ts) if theta + s >= 0]
     val_blocks = [[float(rec.t[b[0]]), float(rec.t[b[-1]])] for b in blocks[1::2]]
     return Comparison(rec, model, ctx, prob, burn, int(edges[1]), val_blocks, shifts,
-                      nominal, pem)
+                      nominal, pem, hp_factor)
 
 
 def _band_for_residual_line(ctx: Context, nominal: Fit, burn: int,
@@ -311,11 +315,11 @@ def hypothesise(cmp: Comparison, loc: Location,
 
 def _identify_valve(cmp: Comparison, alpha: float) -> HammersteinResult:
     """The closed-loop Hammerstein identification (process held at a given model,
-    re-identified otherwise)."""
+    re-identified otherwise), high-passed like the hypotheses' fits (``cmp.hp_factor``)."""
     m = cmp.model
     theta = max(m.dead_time + cmp.nominal.extra.get("timing_shift_s", 0.0), 0.0)
     return fit_hammerstein(cmp.rec, alpha=alpha, linear=(m.gain, m.time_constant, theta),
-                           fix_process=m.source == "given")
+                           fix_process=m.source == "given", hp_factor=cmp.hp_factor)
 
 
 def _adopt_linear(cmp: Comparison, h: HammersteinResult) -> bool:
@@ -486,7 +490,7 @@ def own_resolution(rec: Recording, model_given: bool) -> frozenset[str]:
 
 
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
-             min_improvement: float = MIN_IMPROVEMENT, hp_factor: float = 0.3,
+             min_improvement: float = MIN_IMPROVEMENT, hp_factor: float = HP_FACTOR,
              lp_factor: float = 5.0, hypotheses: tuple[str, ...] | None = None,
              pem: bool = True, op_range: tuple[float, float] | None = None) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:

@@ -410,7 +410,8 @@ def _check(rec: Recording) -> tuple[np.ndarray, np.ndarray]:
 
 def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
                     linear: tuple[float, float, float] | None = None,
-                    fix_process: bool = False) -> HammersteinResult:
+                    fix_process: bool = False,
+                    hp_factor: float = HP_FACTOR) -> HammersteinResult:
     """Identify a stick-slip valve and a FOPDT process jointly from ``rec.OP`` → ``rec.PV``.
 
     Parameters
@@ -432,6 +433,10 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
         33 → 26 of 84) and on ISDB CHEM23 (stiction, S 25.2 and J 4.75 → a dead band:
         the every-sample rule with J 0.35). That choice was made on those recordings
         (in-sample for them).
+    hp_factor : float
+        The prefilter's high-pass cut-off as a fraction of ``1/(2π(τ+θ))`` of the linear
+        loop it starts from (default :data:`HP_FACTOR`; :func:`.diagnose.diagnose` passes
+        its own, so that the valve and the other hypotheses see the same band).
 
     Returns
     -------
@@ -449,7 +454,9 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
     op, pv = _check(rec)
     Ts = rec.Ts
     _, tau0, theta0 = linear if linear is not None else fit_fopdt(op, pv, Ts)
-    f_hp = HP_FACTOR / (2 * math.pi * (tau0 + theta0))
+    if not hp_factor > 0:
+        raise InputError(f"hp_factor must be positive, got {hp_factor!r}")
+    f_hp = hp_factor / (2 * math.pi * (tau0 + theta0))
     burn = min(int(math.ceil((theta0 + 3 * tau0) / Ts)), op.size // 5)
     crit = _Criterion(op, pv, Ts, f_hp, *_blocks(op.size, burn))
     crit.fixed = bool(fix_process and linear is not None)
