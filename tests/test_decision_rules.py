@@ -1,0 +1,58 @@
+"""The alternative decision rules of ``experiments/decision_rules.py`` on hand-made
+evidence: each differs from the shipped rule where its docstring says it does."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+
+import decision_rules as dr  # noqa: E402
+
+
+def _row(lag_tau: float = 3.0, lag_improvement: float = 0.03) -> pd.Series:
+    ev = [{"physics": "none", "p_value": 1.0, "improvement": 0.0, "score": 12.0,
+           "at_bound": False, "parameters": {}},
+          {"physics": "dead_time", "p_value": 1e-3, "improvement": 0.03, "score": 2.0,
+           "at_bound": False, "parameters": {"dead_time": 13.0}},
+          {"physics": "sensor_lag", "p_value": 1e-3, "improvement": lag_improvement,
+           "score": 0.0, "at_bound": False, "parameters": {"time_constant": lag_tau}}]
+    return pd.Series({"evidence": json.dumps(ev), "slip_jump_p": float("nan"),
+                      "dead_time_own_resolution": True, "class": "sensor_lag", "level": 2})
+
+
+def test_the_lag_of_lower_bic_is_named_only_when_judged_by_its_own_resolution():
+    row = _row()
+    assert dr.shipped(row) == "dead_time"
+    assert dr.sensor_lag_own_resolution(row) == "sensor_lag"
+    # at or under one sample the lag is never named
+    assert dr.sensor_lag_own_resolution(_row(lag_tau=1.0)) == "dead_time"
+
+
+def test_winner_gated_answers_none_when_the_best_fit_fails_its_gate():
+    assert dr.winner_gated(_row()) == "none"
+    assert dr.winner_gated(_row(lag_improvement=0.2)) == "sensor_lag"
+
+
+def test_bic_only_ignores_the_likelihood_ratio_test():
+    row = _row(lag_improvement=0.2)
+    ev = json.loads(row["evidence"])
+    ev[2]["p_value"] = 0.5
+    row["evidence"] = json.dumps(ev)
+    assert dr.shipped(row) == "dead_time"
+    assert dr.bic_only(row) == "sensor_lag"
+
+
+def test_score_counts_levels_and_none_recordings():
+    df = pd.DataFrame({"class": ["none", "stiction", "none", "deadband"],
+                       "level": [1, 1, 2, 2]})
+    picks = pd.Series(["stiction", "stiction", "none", "none"])
+    s = dr.score(df, picks)
+    assert s["level 1: named"].startswith("1/2")
+    assert s["level 1: none called physics"].startswith("1/1")
+    assert s["level 2: physics classes"].startswith("0/1")
+    assert dr.counts(df, picks) == (2, 1)
