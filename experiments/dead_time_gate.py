@@ -90,7 +90,8 @@ def one(family: str, cls: str, level: int, seed: int) -> dict:
             "dead_time_p": dt["p_value"], "dead_time_improvement": dt["improvement"],
             "dead_time_at_bound": dt["at_bound"],
             "evidence": json.dumps([{k: r[k] for k in ("physics", "p_value", "improvement",
-                                                       "score", "at_bound", "parameters")}
+                                                       "score", "at_bound", "parameters",
+                                                       "improvement_kstep")}
                                     for r in d.ranking]),
             "slip_jump_p": slip}
 

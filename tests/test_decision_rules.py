@@ -56,3 +56,34 @@ def test_score_counts_levels_and_none_recordings():
     assert s["level 1: none called physics"].startswith("1/1")
     assert s["level 2: physics classes"].startswith("0/1")
     assert dr.counts(df, picks) == (2, 1)
+
+
+def test_kstep_gate_uses_the_kstep_effect_size_in_place_of_the_nrmse():
+    row = _row(lag_improvement=0.2)
+    ev = json.loads(row["evidence"])
+    for e, k in zip(ev, (0.0, 0.0, 0.01), strict=True):
+        e["improvement_kstep"] = k
+    ev[1]["physics"] = "deadband"  # not judged by its own resolution
+    row["evidence"] = json.dumps(ev)
+    assert dr.shipped(row) == "sensor_lag"
+    assert dr.kstep_gate(row, 0.005) == "sensor_lag"
+    assert dr.kstep_gate(row, 0.02) == "none"
+
+
+def test_kstep_threshold_keeps_none_recordings_under_the_limit():
+    def rec(cls: str, k: float, stored: bool = True) -> dict:
+        ev = [{"physics": "none", "p_value": 1.0, "improvement": 0.0, "score": 5.0,
+               "at_bound": False, "parameters": {}, "improvement_kstep": 0.0},
+              {"physics": "saturation", "p_value": 1e-4, "improvement": 0.2, "score": 0.0,
+               "at_bound": False, "parameters": {}, "improvement_kstep": k}]
+        if not stored:
+            ev = [{key: v for key, v in e.items() if key != "improvement_kstep"}
+                  for e in ev]
+        return {"evidence": json.dumps(ev), "slip_jump_p": float("nan"), "class": cls,
+                "level": 1}
+    # a `none` recording whose spurious fit reaches 0.01: 0.02 is the threshold that
+    # keeps it `none` and still names the saturation at 0.03
+    df = pd.DataFrame([rec("none", 0.01), rec("saturation", 0.03)])
+    assert dr.tune_kstep(df) == 0.02
+    old = pd.DataFrame([rec("none", 0.01, False), rec("saturation", 0.03, False)])
+    assert dr.tune_kstep(old) is None
