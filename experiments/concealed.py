@@ -39,7 +39,9 @@ import json
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 import pandas as pd
@@ -82,6 +84,7 @@ TUNING_FAMILY = "sim_physical"
 DEFAULTS = tuple(inspect.signature(diagnose).parameters[k].default
                  for k in ("alpha", "min_improvement"))
 MAX_NONE_RATE = 0.05
+T = TypeVar("T")
 #: the fitted parameter compared with the truth, per class
 MAIN_PARAMETER = {"stiction": "S", "deadband": "deadband", "sensor_lag": "time_constant",
                   "dead_time": "dead_time", "valve_characteristic": "rangeability",
@@ -134,10 +137,15 @@ def run_one(job: dict) -> dict:
         "dead_time_own_resolution": excited, "seconds": seconds}
 
 
+def own_resolution_of(row: pd.Series) -> frozenset[str]:
+    """The hypotheses a stored diagnosis judged by their own resolution (the rule applied
+    only against a given model on a recording with set-point excitation)."""
+    return OWN_RESOLUTION if row.get("dead_time_own_resolution", True) else frozenset()
+
+
 def decide(row: pd.Series, alpha: float, min_improvement: float) -> str:
-    own = OWN_RESOLUTION if row.get("dead_time_own_resolution", True) else frozenset()
     return select(json.loads(row["evidence"]), row["slip_jump_p"], alpha=alpha,
-                  min_improvement=min_improvement, own_resolution=own,
+                  min_improvement=min_improvement, own_resolution=own_resolution_of(row),
                   cycle_reproduced=bool(row.get("cycle_reproduced", False)))
 
 
@@ -145,21 +153,32 @@ def picks(df: pd.DataFrame, alpha: float, min_improvement: float) -> pd.Series:
     return df.apply(decide, axis=1, args=(alpha, min_improvement))
 
 
-def tune(df: pd.DataFrame) -> tuple[float, float]:
-    """Thresholds naming most recordings of ``df`` correctly with ``none`` called physics
-    ≤ 5 % (the lowest ``none`` rate if no pair meets it); ties to the smaller alpha."""
+def best_setting(df: pd.DataFrame, settings: Iterable[T],
+                 picks_of: Callable[[T], pd.Series],
+                 tie: Callable[[T], float] = lambda s: 0.0) -> T:
+    """The tuning rule: the setting whose verdicts (``picks_of(setting)``) name most
+    recordings of ``df`` correctly with ``none`` called physics at most
+    :data:`MAX_NONE_RATE` (the lowest ``none`` rate if no setting meets it); ties to the
+    first setting of largest ``tie``."""
     best = None
     is_none = df["class"] == "none"
-    for alpha, mi in itertools.product(ALPHAS, MIN_IMPROVEMENTS):
-        p = picks(df, alpha, mi)
+    for s in settings:
+        p = picks_of(s)
         none_rate = float((p[is_none] != "none").mean()) if is_none.any() else 0.0
         acc = float((p == df["class"]).mean())
         key = (none_rate <= MAX_NONE_RATE, acc if none_rate <= MAX_NONE_RATE else -none_rate,
-               -alpha)
+               tie(s))
         if best is None or key > best[0]:
-            best = (key, alpha, mi)
+            best = (key, s)
     assert best is not None
-    return best[1], best[2]
+    return best[1]
+
+
+def tune(df: pd.DataFrame) -> tuple[float, float]:
+    """Thresholds (alpha, min_improvement) by :func:`best_setting`; ties to the smaller
+    alpha."""
+    return best_setting(df, itertools.product(ALPHAS, MIN_IMPROVEMENTS),
+                        lambda s: picks(df, *s), tie=lambda s: -s[0])
 
 
 def miss_reason(row: pd.Series, pick: str, alpha: float = DEFAULTS[0],
@@ -174,7 +193,7 @@ def miss_reason(row: pd.Series, pick: str, alpha: float = DEFAULTS[0],
     t = ev.get(row["class"])
     if t is None:
         return "not tested"
-    own = OWN_RESOLUTION if row.get("dead_time_own_resolution", True) else frozenset()
+    own = own_resolution_of(row)
     why = failed_gates(t, alpha, min_improvement, own_resolution=own)
     if why:
         return " + ".join(why)

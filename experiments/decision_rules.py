@@ -49,12 +49,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from concealed import MAX_NONE_RATE  # noqa: E402
+from concealed import best_setting, decide, own_resolution_of  # noqa: E402
 
 from stictionbench.diagnosis.evidence import (  # noqa: E402
     ALPHA,
     MIN_IMPROVEMENT,
-    OWN_RESOLUTION,
     VALVE_HYPOTHESES,
     passes,
     select,
@@ -82,19 +81,14 @@ TS = 1.0
 KSTEP_GRID = (0.002, 0.005, 0.01, 0.02, 0.03, 0.05, 0.08)
 
 
-def _context(row: pd.Series) -> tuple[list[dict], float | None, frozenset[str], bool]:
-    rows = json.loads(row["evidence"])
-    slip = row.get("slip_jump_p")
-    slip = None if slip is None or pd.isna(slip) else float(slip)
-    own = OWN_RESOLUTION if bool(row.get("dead_time_own_resolution", True)) else frozenset()
-    cycle = bool(row.get("cycle_reproduced", False))
-    return rows, slip, own, cycle
+def _context(row: pd.Series) -> tuple[list[dict], float, frozenset[str], bool]:
+    return (json.loads(row["evidence"]), row["slip_jump_p"], own_resolution_of(row),
+            bool(row.get("cycle_reproduced", False)))
 
 
 def shipped(row: pd.Series) -> str:
-    rows, slip, own, cycle = _context(row)
-    return select(rows, slip, alpha=ALPHA, min_improvement=MIN_IMPROVEMENT,
-                  own_resolution=own, cycle_reproduced=cycle)
+    """The package's rule at its defaults (:func:`concealed.decide`)."""
+    return decide(row, ALPHA, MIN_IMPROVEMENT)
 
 
 def sensor_lag_own_resolution(row: pd.Series) -> str:
@@ -151,21 +145,13 @@ def kstep_gate(row: pd.Series, threshold: float) -> str:
 
 
 def tune_kstep(df: pd.DataFrame) -> float | None:
-    """The k-step threshold naming most of ``df`` with ``none`` called physics at most
-    :data:`MAX_NONE_RATE` (``None``: no threshold meets it, or ``df`` has no k-step
-    effect sizes)."""
+    """The k-step threshold by the benchmark's own tuning rule
+    (:func:`concealed.best_setting`; ties to the smaller threshold), or ``None`` when
+    ``df`` holds no k-step effect sizes."""
     if not _has_kstep(df):
         return None
-    nn = df["class"] == "none"
-    best = None
-    for t in KSTEP_GRID:
-        picks = df.apply(kstep_gate, axis=1, args=(t,))
-        if float((picks[nn] != "none").mean()) > MAX_NONE_RATE:
-            continue
-        named = int((picks == df["class"]).sum())
-        if best is None or named > best[0]:
-            best = (named, t)
-    return None if best is None else best[1]
+    return best_setting(df, KSTEP_GRID, lambda t: df.apply(kstep_gate, axis=1, args=(t,)),
+                        tie=lambda t: -t)
 
 
 RULES: dict[str, Callable[[pd.Series], str]] = {

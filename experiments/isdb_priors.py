@@ -66,8 +66,9 @@ def flow_prior(rec: Recording) -> dict:
     """The valve identified with the FOPDT re-identified (shipped) and against a static
     process, both with the prefilter of the shipped identification."""
     op, pv, Ts = np.asarray(rec.OP, float), np.asarray(rec.PV, float), rec.Ts
-    free = fit_hammerstein(rec)
-    _, tau0, theta0 = fit_fopdt(op, pv, Ts)
+    # the FOPDT the shipped identification starts from (it fits the same when not given)
+    K0, tau0, theta0 = fit_fopdt(op, pv, Ts)
+    free = fit_hammerstein(rec, linear=(K0, tau0, theta0))
     tau_s, theta_s = STATIC_TAU * Ts, Ts
     # the same cut-off: hp_factor/(2π(τ_s+θ_s)) = HP_FACTOR/(2π(τ0+θ0))
     static = fit_hammerstein(rec, linear=(1.0, tau_s, theta_s), fix_process=True,
