@@ -55,8 +55,8 @@ real: venv
 	$(BIN)/python experiments/fast_loops.py
 	$(BIN)/python experiments/regulatory_bias.py
 	$(BIN)/python experiments/limit_cycles.py
-	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
 	$(BIN)/python experiments/isdb_priors.py --data $(DATA)/isdb
+	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
 	$(BIN)/python experiments/simulated_loops.py
 	$(BIN)/python experiments/flow_loops.py
 	$(BIN)/python experiments/compression.py --data $(DATA)
