@@ -55,3 +55,25 @@ def test_no_command_is_one_line_exit_2(capsys):
     assert main([]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "required" in err[0]
+
+
+def test_diagnose_without_report_does_not_import_the_plotting_stack(tmp_path):
+    # the figures' stack (matplotlib) costs about 0.6 s of a diagnosis command's wall
+    # time; it is imported only with --report (benchmarks/test_bench_diagnose.py times
+    # the whole command against the import floor)
+    import stictionbench as sb
+    from stictionbench.io import write_recording
+
+    rec = sb.simulate("linear", duration=600.0, seed=1, sample_time=1.0)
+    csv = write_recording(rec, tmp_path / "r.csv")
+    model = tmp_path / "m.yaml"
+    model.write_text("process: {gain: 3.0, time_constant: 10.0, dead_time: 10.0}\n"
+                     "controller: {kc: 0.2, ti: 10.0}\nsample_time: 1.0\n")
+    code = ("import sys; from stictionbench.cli import main; "
+            f"rc = main(['diagnose', {str(csv)!r}, '--model', {str(model)!r}, "
+            f"'--json', {str(tmp_path / 'o.json')!r}]); "
+            "print(rc, 'matplotlib' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip().splitlines()[-1]
+    assert out == "0 False"
+    assert (tmp_path / "o.json").is_file()

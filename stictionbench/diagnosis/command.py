@@ -15,7 +15,6 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..validation import refuse_overwrite
     from .diagnose import diagnose
     from .model import load_model
-    from .report import write_report
 
     if not args.json:
         raise InputError("diagnose needs --json OUT.json")
@@ -34,6 +33,10 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
         payload["rows"] = list(rec.meta["rows"])
     if args.report:
+        # the figures' plotting stack is imported only when asked for (about 0.6 s of
+        # a 3000-sample diagnosis's 3 s otherwise; benchmarks/test_bench_cli.py)
+        from .report import write_report
+
         write_report(d, args.report)
     write_text(args.json, json.dumps(payload, indent=2, allow_nan=False,
                                      default=_safe) + "\n")
