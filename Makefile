@@ -76,6 +76,7 @@ concealed: venv
 	$(BIN)/python experiments/disturbance_band.py --seeds 12 --none-seeds 12 --jobs 2
 	$(BIN)/python experiments/dead_time_gate.py --seeds 6 --none-seeds 12 --jobs 2
 	$(BIN)/python experiments/decision_rules.py
+	$(BIN)/python experiments/lr_calibration.py
 	$(BIN)/python experiments/controller_rate_artefact.py
 	$(BIN)/python experiments/stiction_controller_rate.py
 	$(BIN)/python experiments/verdict_stability.py --trim 7 --jobs 2

@@ -87,3 +87,37 @@ def test_kstep_threshold_keeps_none_recordings_under_the_limit():
     assert dr.tune_kstep(df) == 0.02
     old = pd.DataFrame([rec("none", 0.01, False), rec("saturation", 0.03, False)])
     assert dr.tune_kstep(old) is None
+
+
+def test_holm_adjusts_every_tested_hypothesis_and_leaves_the_nominal():
+    rows = [{"physics": "none", "p_value": 1.0},
+            {"physics": "a", "p_value": 0.01}, {"physics": "b", "p_value": 0.04},
+            {"physics": "c", "p_value": 0.03}]
+    adj = {r["physics"]: r["p_value"] for r in dr.holm_adjust(rows)}
+    # ascending 0.01, 0.03, 0.04 times 3, 2, 1, made monotone
+    assert adj == {"none": 1.0, "a": 0.03, "c": 0.06, "b": 0.06}
+    assert rows[1]["p_value"] == 0.01  # the input rows are not changed
+
+
+def test_holm_gate_withholds_what_only_the_unadjusted_test_passes():
+    row = _row(lag_improvement=0.2)
+    ev = json.loads(row["evidence"])
+    ev[1]["p_value"], ev[2]["p_value"] = 0.5, 0.03  # the lag alone passes alpha 0.05
+    row["evidence"] = json.dumps(ev)
+    assert dr.shipped(row) == "sensor_lag"
+    assert dr.holm_gate(row, 0.05, 0.1) == "none"       # 2 × 0.03 ≥ 0.05
+    assert dr.holm_gate(row, 0.1, 0.1) == "sensor_lag"
+    assert dr.holm_gate(row, 0.1, 0.25) == "none"       # the effect-size gate still holds
+
+
+def test_calibration_counts_only_none_recordings():
+    spurious = _row(lag_improvement=0.2)
+    spurious["class"] = "none"
+    clean = _row(lag_improvement=0.2)
+    ev = json.loads(clean["evidence"])
+    for e in ev[1:]:
+        e["p_value"] = 0.9
+    clean["evidence"], clean["class"] = json.dumps(ev), "none"
+    other = _row(lag_improvement=0.2)                    # a physics class: not counted
+    cal = dr.calibration(pd.DataFrame([spurious, clean, other]))
+    assert all(v.startswith("1/2") for v in cal.values())
