@@ -124,7 +124,8 @@ def run_one(job: dict) -> dict:
     seconds = time.perf_counter() - t0
     evidence = [{"physics": r["physics"], "p_value": r["p_value"],
                  "improvement": r["improvement"], "score": r["score"],
-                 "improvement_kstep": r["improvement_kstep"],
+                 "improvement_kstep": r["improvement_kstep"], "p_full": r["p_full"],
+                 "p_k_step": r["p_k_step"],
                  "at_bound": r["at_bound"], "parameters": r["parameters"]}
                 for r in d.ranking]
     slip = d.tests.get("slip_jump_zero", {}).get("p_value")

@@ -91,7 +91,8 @@ def one(family: str, cls: str, level: int, seed: int) -> dict:
             "dead_time_at_bound": dt["at_bound"],
             "evidence": json.dumps([{k: r[k] for k in ("physics", "p_value", "improvement",
                                                        "score", "at_bound", "parameters",
-                                                       "improvement_kstep")}
+                                                       "improvement_kstep", "p_full",
+                                                       "p_k_step")}
                                     for r in d.ranking]),
             "slip_jump_p": slip}
 

@@ -121,3 +121,18 @@ def test_calibration_counts_only_none_recordings():
     other = _row(lag_improvement=0.2)                    # a physics class: not counted
     cal = dr.calibration(pd.DataFrame([spurious, clean, other]))
     assert all(v.startswith("1/2") for v in cal.values())
+
+
+def test_full_data_lr_decides_by_the_test_on_every_block():
+    row = _row(lag_improvement=0.2)
+    ev = json.loads(row["evidence"])
+    ev[1]["p_value"] = ev[2]["p_value"] = 0.5          # the validation test: nothing
+    ev[0].update(p_full=1.0, p_k_step=1.0)
+    ev[1].update(p_full=0.5, p_k_step=0.5)
+    ev[2].update(p_full=0.001, p_k_step=0.9)           # every block: the lag
+    row["evidence"] = json.dumps(ev)
+    assert dr.shipped(row) == "none"
+    assert dr.full_data_lr(row, 0.05, 0.1) == "sensor_lag"   # 2 × 0.001 < 0.05
+    assert dr.full_data_lr(row, 0.001, 0.1) == "none"
+    assert dr._has_keys(pd.DataFrame([row]), "p_full", "p_k_step")
+    assert not dr._has_keys(pd.DataFrame([_row()]), "p_full")

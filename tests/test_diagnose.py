@@ -278,6 +278,16 @@ def test_validate_names_deadband_by_the_slip_jump(deadband_stages):
     assert verdict.ranking[0]["score"] == 0.0
 
 
+def test_full_data_p_is_reported_beside_the_validation_test(stiction_rec):
+    # the classic prediction-error test on every block (training and validation): the
+    # nominal row is 1, every p-value a probability, and a real effect tested on about
+    # 2.5 times the samples is at least as significant as on the validation blocks alone
+    rows = {r["physics"]: r for r in diagnose(stiction_rec, NOM).to_json()["ranking"]}
+    assert rows["none"]["p_full"] == 1.0
+    assert all(0.0 <= r["p_full"] <= 1.0 for r in rows.values())
+    assert rows["stiction"]["p_full"] <= rows["stiction"]["p_one_step"]
+
+
 def test_json_adds_noise_model_and_tests():
     d = diagnose(_rec(seed=8, sensor__time_constant=0.0), NOM)
     js = d.to_json()

@@ -54,6 +54,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.stats import chi2
 
 from .cycle import CycleCheck
 from .fit import Fit
@@ -155,6 +156,21 @@ def _against_nominal(name: str, ft: Fit, base: Fit, var: dict[str, dict[str, flo
             "p_k_step": kst["p_value"]}
 
 
+def _full_data_p(name: str, ft: Fit, base: Fit, var: dict[str, dict[str, float]],
+                 n_train: int, n_val: int) -> float:
+    """The classic prediction-error test of a hypothesis against the nominal model on
+    every block, training and validation (Ljung 1999, ch. 16.4: ``N·ln(V₀/V₁)`` against
+    χ² with the extra parameters; the training part is Wilks's statistic, the validation
+    part out of sample). Reported beside the validation test, not used in the decision:
+    ``experiments/decision_rules.py`` (``full_data_lr``) scores a rule that decides by it.
+    A valve whose process was re-identified keeps the intersection–union gate."""
+    df = max(1, ft.n_params - base.n_params)
+    stat = sum(n * math.log(max(var["none"][part], 1e-300) / max(var[name][part], 1e-300))
+               for n, part in ((n_train, "train"), (n_val, "validation")))
+    p = float(chi2.sf(max(stat, 0.0), df))
+    return p if ft.gate_p is None else max(p, ft.gate_p)
+
+
 def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_hp: float,
              train: np.ndarray, val: np.ndarray, *, alpha: float,
              min_improvement: float, horizon: int = 1,
@@ -182,9 +198,10 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
         if name == "none":
             lr = {"statistic": 0.0, "p_value": 1.0, "df": 0, "p_one_step": 1.0,
                   "p_k_step": 1.0}
-            improvement = 0.0
+            improvement, p_full = 0.0, 1.0
         else:
             lr = _against_nominal(name, ft, base, var, ek, val, horizon)
+            p_full = _full_data_p(name, ft, base, var, train.size, val.size)
             if ft.gate_p is not None:
                 # intersection–union test: significant only when both tests are
                 lr = {**lr, "p_value": max(lr["p_value"], ft.gate_p)}
@@ -192,7 +209,7 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
         row = {"physics": name, "raw_score": var[name]["bic"],
                "p_value": lr["p_value"], "lr_statistic": lr["statistic"],
                "df": lr["df"], "p_one_step": lr["p_one_step"],
-               "p_k_step": lr["p_k_step"], "p_gate": ft.gate_p,
+               "p_k_step": lr["p_k_step"], "p_gate": ft.gate_p, "p_full": p_full,
                "improvement": improvement, "nrmse_validation": ft.nrmse_val,
                "improvement_kstep": 1.0 - math.sqrt(vk[name] / max(vk["none"], 1e-300)),
                "innovation_variance": var[name]["validation"],
@@ -298,7 +315,7 @@ def _bic(row: dict[str, Any]) -> float:
 def _ranking(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     best = min(r["raw_score"] for r in rows)
     keys = ("physics", "improvement", "improvement_kstep", "p_value", "p_one_step",
-            "p_k_step", "p_gate", "lr_statistic", "df", "nrmse_validation",
+            "p_k_step", "p_gate", "p_full", "lr_statistic", "df", "nrmse_validation",
             "innovation_variance", "significant", "at_bound", "parameters")
     return sorted(({"score": r["raw_score"] - best, **{k: r[k] for k in keys}} for r in rows),
                   key=lambda r: r["score"])
