@@ -157,7 +157,8 @@ def _sim_overrides(c: Case, controller_s: float | None = None,
 
 
 def _simulate_family(c: Case, controller_s: float | None = None,
-                     characteristic: str = "equal_percentage") -> dict[str, np.ndarray]:
+                     characteristic: str = "equal_percentage",
+                     quantise: bool = True) -> dict[str, np.ndarray]:
     sim_seed = 10_000 * FAMILIES.index(c.family) + 1000 * c.level + c.seed
     ov = _sim_overrides(c, controller_s, characteristic)
     if c.cls == "saturation":
@@ -168,7 +169,7 @@ def _simulate_family(c: Case, controller_s: float | None = None,
         ov = ov + [f"valve.travel_high={hi}"]
     rec = simulate("linear", duration=DURATION, seed=sim_seed, sample_time=1.0, overrides=ov)
     pv, op = np.asarray(rec.PV, float), np.asarray(rec.OP, float)
-    if c.family == "sim_he":
+    if c.family == "sim_he" and quantise:
         q = 0.5 * c.noise
         pv, op = np.round(pv / q) * q, np.round(op / 0.05) * 0.05
     # MV (the valve position) is returned for checks that need the truth; the benchmark
@@ -270,17 +271,18 @@ def _lsim_family(c: Case) -> dict[str, np.ndarray]:
 
 def make_recording(family: str, cls: str, level: int, seed: int,
                    controller_s: float | None = None,
-                   characteristic: str = "equal_percentage"
+                   characteristic: str = "equal_percentage", quantise: bool = True
                    ) -> tuple[Case, dict[str, np.ndarray]]:
     """Draw a case of ``family`` and simulate it: ``(case, {t, SP, PV, OP})``.
     ``controller_s`` replaces the family's controller period and ``characteristic`` the
     ``valve_characteristic`` class's installed curve (``quick_opening``: concave; the
     two ``sim_`` families only; ``lsim_choudhury`` steps its whole loop every 0.5 s
-    with its own equal-percentage valve)."""
+    with its own equal-percentage valve); ``quantise=False`` leaves out ``sim_he``'s
+    historian quantisation (the other families have none)."""
     c = draw(family, cls, level, seed)
     if family == "lsim_choudhury":
         if controller_s is not None or characteristic != "equal_percentage":
             raise ValueError("lsim_choudhury has no separate controller period and its "
                              "own valve characteristic")
         return c, _lsim_family(c)
-    return c, _simulate_family(c, controller_s, characteristic)
+    return c, _simulate_family(c, controller_s, characteristic, quantise)
