@@ -106,13 +106,18 @@ def best_of(fn: Callable[[], Any], rounds: int = 2, warmup: int = 0) -> tuple[fl
 
 
 # --------------------------------------------------------------------------- data
-@pytest.fixture(scope="module")
-def recordings(tmp_path_factory) -> dict[str, tuple[Any, Any]]:
+def _concealed() -> Any:
+    """The concealed-data generator (``experiments/concealed.py``)."""
     sys.path.insert(0, str(ROOT / "experiments"))
     try:
-        concealed = importlib.import_module("concealed")
+        return importlib.import_module("concealed")
     finally:
         sys.path.remove(str(ROOT / "experiments"))
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory) -> dict[str, tuple[Any, Any]]:
+    concealed = _concealed()
     out = tmp_path_factory.mktemp("diagnose_bench")
     recs = {}
     for cls in CLASSES:
@@ -301,12 +306,7 @@ def _wall(cmd: list[str]) -> float:
 def test_whole_command(tmp_path) -> None:
     """``stictionbench diagnose`` as a whole process, with and without a model, against
     the import floor and the eager-import command (see the module docstring)."""
-    sys.path.insert(0, str(ROOT / "experiments"))
-    try:
-        concealed = importlib.import_module("concealed")
-    finally:
-        sys.path.remove(str(ROOT / "experiments"))
-    job = concealed.generate("stiction", LEVEL, SEED, tmp_path)
+    job = _concealed().generate("stiction", LEVEL, SEED, tmp_path)
     exe = Path(sys.executable).with_name("stictionbench")
     cli = [str(exe)] if exe.is_file() else [sys.executable, "-m", "stictionbench.cli"]
     out = str(tmp_path / "out.json")

@@ -55,7 +55,9 @@ from __future__ import annotations
 import json
 import sys
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -143,13 +145,6 @@ def bic_only(row: pd.Series) -> str:
     return best
 
 
-def _has_kstep(df: pd.DataFrame) -> bool:
-    """Whether a benchmark's evidence holds the k-step effect size (stored since it was
-    added to the ranking)."""
-    return bool(len(df)) and all("improvement_kstep" in e
-                                 for e in json.loads(df["evidence"].iloc[0]))
-
-
 def kstep_gate(row: pd.Series, threshold: float) -> str:
     rows, slip, own, cycle = _context(row)
     for r in rows:
@@ -160,16 +155,6 @@ def kstep_gate(row: pd.Series, threshold: float) -> str:
             r["improvement"] = 1.0 if ok else -1.0
     return select(rows, slip, alpha=ALPHA, min_improvement=0.5, own_resolution=own,
                   cycle_reproduced=cycle)
-
-
-def tune_kstep(df: pd.DataFrame) -> float | None:
-    """The k-step threshold by the benchmark's own tuning rule
-    (:func:`concealed.best_setting`; ties to the smaller threshold), or ``None`` when
-    ``df`` holds no k-step effect sizes."""
-    if not _has_kstep(df):
-        return None
-    return best_setting(df, KSTEP_GRID, lambda t: df.apply(kstep_gate, axis=1, args=(t,)),
-                        tie=lambda t: -t)
 
 
 def holm_adjust(rows: list[dict]) -> list[dict]:
@@ -191,13 +176,6 @@ def holm_gate(row: pd.Series, alpha: float, gate: float) -> str:
                   own_resolution=own, cycle_reproduced=cycle)
 
 
-def tune_holm(df: pd.DataFrame) -> tuple[float, float]:
-    """``(alpha, gate)`` of ``holm_gate`` by the benchmark's own tuning rule
-    (:func:`concealed.best_setting`; ties to the larger gate, then the smaller alpha)."""
-    return best_setting(df, HOLM_GRID, lambda s: df.apply(holm_gate, axis=1, args=s),
-                        tie=lambda s: (s[1], -s[0]))
-
-
 def _has_keys(df: pd.DataFrame, *keys: str) -> bool:
     """Whether a benchmark's stored evidence holds ``keys`` in every row of its first
     recording (added to the ranking after some benchmarks were stored)."""
@@ -214,21 +192,64 @@ def full_data_lr(row: pd.Series, alpha: float, gate: float) -> str:
                   cycle_reproduced=cycle)
 
 
-def tune_full(df: pd.DataFrame) -> tuple[float, float] | None:
-    """``(alpha, gate)`` of ``full_data_lr`` by the tuning rule (ties to the larger
-    gate, then the smaller alpha), or ``None`` when ``df`` holds no ``p_full``."""
-    if not _has_keys(df, "p_full", "p_k_step"):
+@dataclass(frozen=True)
+class Tuned:
+    """A rule whose settings are tuned on the three families (by
+    :func:`concealed.best_setting`) and scored on the other benchmarks."""
+
+    rule: Callable[..., str]
+    #: the settings tried, each the rule's arguments after the row
+    grid: tuple[tuple[float, ...], ...]
+    #: the tie-break among settings naming as many (largest wins)
+    tie: Callable[[tuple[float, ...]], Any]
+    #: the settings in words, for the report
+    names: tuple[str, ...]
+    #: the evidence keys the rule reads beyond the shipped rule's (stored since added)
+    needs: tuple[str, ...] = ()
+
+
+def _larger_gate(s: tuple[float, ...]) -> tuple[float, float]:
+    """Ties to the larger NRMSE gate, then the smaller alpha."""
+    return s[1], -s[0]
+
+
+TUNED: dict[str, Tuned] = {
+    "kstep_gate": Tuned(kstep_gate, tuple((t,) for t in KSTEP_GRID), lambda s: -s[0],
+                        ("threshold",), ("improvement_kstep",)),
+    "holm_gate": Tuned(holm_gate, HOLM_GRID, _larger_gate,
+                       ("family-wise alpha", "NRMSE gate")),
+    "full_data_lr": Tuned(full_data_lr, HOLM_GRID, _larger_gate, ("alpha", "NRMSE gate"),
+                          ("p_full", "p_k_step")),
+}
+
+
+def tune(df: pd.DataFrame, name: str) -> tuple[float, ...] | None:
+    """The settings of :data:`TUNED` rule ``name`` by the benchmark's own tuning rule,
+    or ``None`` when ``df``'s evidence lacks what the rule reads."""
+    t = TUNED[name]
+    if not _has_keys(df, *t.needs):
         return None
-    return best_setting(df, HOLM_GRID, lambda s: df.apply(full_data_lr, axis=1, args=s),
-                        tie=lambda s: (s[1], -s[0]))
+    return best_setting(df, t.grid, lambda s: df.apply(t.rule, axis=1, args=s), tie=t.tie)
+
+
+def tune_kstep(df: pd.DataFrame) -> float | None:
+    """The k-step threshold (ties to the smaller), or ``None`` when ``df`` holds no
+    k-step effect sizes."""
+    s = tune(df, "kstep_gate")
+    return None if s is None else s[0]
+
+
+def holm_picks(df: pd.DataFrame, alpha: float) -> pd.Series:
+    """Every recording's verdict with Holm's family-wise ``alpha`` and no effect-size
+    gate (an NRMSE improvement at all)."""
+    return df.apply(holm_gate, axis=1, args=(alpha, 0.0))
 
 
 def calibration(df: pd.DataFrame) -> dict[str, str]:
-    """``none`` recordings called physics under Holm's family-wise ``alpha`` with no
-    effect-size gate, for each of :data:`CALIBRATION_ALPHAS`, both levels pooled."""
+    """``none`` recordings called physics by :func:`holm_picks` for each of
+    :data:`CALIBRATION_ALPHAS`, both levels pooled."""
     nn = df[df["class"] == "none"]
-    return {f"alpha {a:g}": rate_text(int((nn.apply(holm_gate, axis=1, args=(a, 0.0))
-                                          != "none").sum()), len(nn))
+    return {f"alpha {a:g}": rate_text(int((holm_picks(nn, a) != "none").sum()), len(nn))
             for a in CALIBRATION_ALPHAS}
 
 
@@ -260,16 +281,12 @@ def score(df: pd.DataFrame, picks: pd.Series) -> dict:
 def main(argv=None) -> int:
     rows, missing, verdicts = [], [], {}
     tuning = OUT / BENCHMARKS["three families"][0]
-    threshold = tune_kstep(pd.read_csv(tuning)) if tuning.is_file() else None
-    holm = tune_holm(pd.read_csv(tuning)) if tuning.is_file() else None
-    full = tune_full(pd.read_csv(tuning)) if tuning.is_file() else None
+    tuning_df = pd.read_csv(tuning) if tuning.is_file() else pd.DataFrame()
+    settings = {name: tune(tuning_df, name) for name in TUNED}
     rules = dict(RULES)
-    if threshold is not None:
-        rules["kstep_gate"] = lambda row: kstep_gate(row, threshold)
-    if holm is not None:
-        rules["holm_gate"] = lambda row: holm_gate(row, *holm)
-    if full is not None:
-        rules["full_data_lr"] = lambda row: full_data_lr(row, *full)
+    for name, s in settings.items():
+        if s is not None:
+            rules[name] = lambda row, rule=TUNED[name].rule, s=s: rule(row, *s)
     calib = []
     for bench, (csv, col, _) in BENCHMARKS.items():
         path = OUT / csv
@@ -280,8 +297,7 @@ def main(argv=None) -> int:
         base = df.apply(shipped, axis=1)
         calib.append({"benchmark": bench, **calibration(df)})
         for name, rule in rules.items():
-            if (name == "kstep_gate" and not _has_kstep(df)) or (
-                    name == "full_data_lr" and not _has_keys(df, "p_full", "p_k_step")):
+            if name in TUNED and not _has_keys(df, *TUNED[name].needs):
                 continue
             picks = base if name == "shipped" else df.apply(rule, axis=1)
             verdicts[bench, name] = counts(df, picks)
@@ -304,17 +320,14 @@ def main(argv=None) -> int:
               if c not in missing]
     if missing:
         lines += ["", f"Not found (run `make concealed`): {', '.join(missing)}."]
-    lines += ["", ("`kstep_gate`'s threshold, tuned on the three families: "
-                   f"{threshold:g}" if threshold is not None else
-                   "`kstep_gate` not scored: the three families' evidence holds no k-step "
-                   "effect size (stored before it was added; run `make concealed`)"),
-              "", ("`holm_gate`'s family-wise alpha and NRMSE gate, tuned on the three "
-                   f"families: {holm[0]:g} and {holm[1]:g}" if holm is not None else ""),
-              "", ("`full_data_lr`'s alpha and NRMSE gate, tuned on the three families: "
-                   f"{full[0]:g} and {full[1]:g}" if full is not None else
-                   "`full_data_lr` not scored: the three families' evidence holds no "
-                   "`p_full` (run `make concealed`)"),
-              "", to_markdown(tab), "", "Against `shipped`, summed over both levels:", ""]
+    for name, s in settings.items():
+        t = TUNED[name]
+        lines += ["", f"`{name}`'s {' and '.join(t.names)}, tuned on the three families: "
+                  + " and ".join(f"{v:g}" for v in s) if s is not None else
+                  f"`{name}` not scored: the three families' evidence holds no "
+                  + ", ".join(f"`{k}`" for k in t.needs)
+                  + " (stored before it was added; run `make concealed`)"]
+    lines += ["", to_markdown(tab), "", "Against `shipped`, summed over both levels:", ""]
     for name in rules:
         if name == "shipped" or (bench_names := [b for b, n in verdicts if n == name]) == []:
             continue

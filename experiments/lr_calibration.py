@@ -46,7 +46,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 from concealed import run_one, write_job  # noqa: E402
 from concealed_families import make_recording  # noqa: E402
-from decision_rules import CALIBRATION_ALPHAS, holm_gate, shipped  # noqa: E402
+from decision_rules import CALIBRATION_ALPHAS, holm_picks, shipped  # noqa: E402
 
 from stictionbench.io import write_text  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
@@ -85,11 +85,11 @@ def table(df: pd.DataFrame) -> pd.DataFrame:
                "PI": "faster than the historian" if rate < HISTORIAN_S else
                "at the historian's rate",
                "historian quantises": "yes" if quantised else "no", "recordings": len(g)}
-        for a in CALIBRATION_ALPHAS:
-            called = (g.apply(holm_gate, axis=1, args=(a, 0.0)) != "none").sum()
-            row[f"Holm alpha {a:g}, no gate"] = rate_text(int(called), len(g))
+        picks = {a: holm_picks(g, a) for a in CALIBRATION_ALPHAS}
+        for a, p in picks.items():
+            row[f"Holm alpha {a:g}, no gate"] = rate_text(int((p != "none").sum()), len(g))
         row["shipped"] = rate_text(int((g.apply(shipped, axis=1) != "none").sum()), len(g))
-        named = g.apply(holm_gate, axis=1, args=(CALIBRATION_ALPHAS[0], 0.0))
+        named = picks[CALIBRATION_ALPHAS[0]]
         counts = named[named != "none"].value_counts()
         row[f"named at Holm alpha {CALIBRATION_ALPHAS[0]:g}"] = ", ".join(
             f"{k} ×{v}" for k, v in counts.items()) or "–"

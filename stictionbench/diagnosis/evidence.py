@@ -165,7 +165,7 @@ def _full_data_p(name: str, ft: Fit, base: Fit, var: dict[str, dict[str, float]]
     ``experiments/decision_rules.py`` (``full_data_lr``) scores a rule that decides by it.
     A valve whose process was re-identified keeps the intersection–union gate."""
     df = max(1, ft.n_params - base.n_params)
-    stat = sum(n * math.log(max(var["none"][part], 1e-300) / max(var[name][part], 1e-300))
+    stat = sum(lr_test(var["none"][part], var[name][part], n, df)["statistic"]
                for n, part in ((n_train, "train"), (n_val, "validation")))
     p = float(chi2.sf(max(stat, 0.0), df))
     return p if ft.gate_p is None else max(p, ft.gate_p)
