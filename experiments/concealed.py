@@ -63,6 +63,7 @@ from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.evidence import (  # noqa: E402
     OWN_RESOLUTION,
     VALVE_HYPOTHESES,
+    after_second_look,
     failed_gates,
     select,
 )
@@ -115,7 +116,9 @@ def write_job(c: Case, sig: dict[str, np.ndarray], out: Path) -> dict:
 
 
 def run_one(job: dict) -> dict:
-    """Diagnose one recording blind; keep its evidence for the offline threshold study."""
+    """Diagnose one recording blind; keep its evidence for the offline threshold study:
+    the main band's ranking and, where it ran, the second look's line
+    (:func:`slow_line_evidence`)."""
     t0 = time.perf_counter()
     rec = read_recording(job["csv"], warn=False)
     pem = not job.get("output_error", False)
@@ -135,7 +138,21 @@ def run_one(job: dict) -> dict:
                                 "noise_frac")} | {
         "predicted_default": d.missing_physics, "truth": json.dumps(job["truth"]),
         "evidence": json.dumps(evidence), "slip_jump_p": slip, "cycle_reproduced": cycle,
-        "dead_time_own_resolution": excited, "seconds": seconds}
+        "dead_time_own_resolution": excited, "slow_line": slow_line_evidence(d),
+        "seconds": seconds}
+
+
+def slow_line_evidence(d) -> str:
+    """The second look's line (:func:`stictionbench.diagnosis.diagnose.second_look`) as
+    stored evidence: its row's gates and period, and the main band's corner period; an
+    empty string when the look did not run."""
+    look = d.details.get("slow_line")
+    if look is None:
+        return ""
+    r = look["oscillatory_disturbance"]
+    return json.dumps({"corner_period_s": look["corner_period_s"],
+                       "row": {k: r[k] for k in ("physics", "p_value", "improvement",
+                                                 "at_bound", "parameters")}})
 
 
 def own_resolution_of(row: pd.Series) -> frozenset[str]:
@@ -144,10 +161,28 @@ def own_resolution_of(row: pd.Series) -> frozenset[str]:
     return OWN_RESOLUTION if row.get("dead_time_own_resolution", True) else frozenset()
 
 
+def with_slow_line(row: pd.Series, pick: str, alpha: float, min_improvement: float) -> str:
+    """``pick`` (the main band's verdict on one stored row), or the second look's slow
+    line where :func:`~stictionbench.diagnosis.evidence.slow_line_named` names it. The
+    look was stored only where the package's defaults named nothing in the main band
+    (rows stored before the look have none)."""
+    look = row.get("slow_line")
+    if not (isinstance(look, str) and look):
+        return pick
+    look = json.loads(look)
+    return after_second_look(pick, {"oscillatory_disturbance": look["row"],
+                                    "corner_period_s": look["corner_period_s"]},
+                             alpha=alpha, min_improvement=min_improvement)
+
+
 def decide(row: pd.Series, alpha: float, min_improvement: float) -> str:
-    return select(json.loads(row["evidence"]), row["slip_jump_p"], alpha=alpha,
+    """The shipped decision re-applied to one stored row at other thresholds: the main
+    band's rule (:func:`~stictionbench.diagnosis.evidence.select`), then the second
+    look (:func:`with_slow_line`)."""
+    pick = select(json.loads(row["evidence"]), row["slip_jump_p"], alpha=alpha,
                   min_improvement=min_improvement, own_resolution=own_resolution_of(row),
                   cycle_reproduced=bool(row.get("cycle_reproduced", False)))
+    return with_slow_line(row, pick, alpha, min_improvement)
 
 
 def picks(df: pd.DataFrame, alpha: float, min_improvement: float) -> pd.Series:

@@ -45,9 +45,15 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 import fresh_recordings as fresh  # noqa: E402
+from concealed import slow_line_evidence  # noqa: E402
 
 from stictionbench.diagnosis import diagnose  # noqa: E402
-from stictionbench.diagnosis.evidence import ALPHA, MIN_IMPROVEMENT, select  # noqa: E402
+from stictionbench.diagnosis.evidence import (  # noqa: E402
+    ALPHA,
+    MIN_IMPROVEMENT,
+    after_second_look,
+    select,
+)
 from stictionbench.io import atomic_path, write_text  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -81,6 +87,9 @@ def one(family: str, cls: str, level: int, seed: int) -> dict:
     earlier = select(d.ranking, slip, alpha=ALPHA, min_improvement=MIN_IMPROVEMENT,
                      own_resolution=frozenset(), cycle_reproduced=bool(
                          d.tests.get("closed_loop_cycle", {}).get("reproduced", False)))
+    # the second look, the same under both rules
+    earlier = after_second_look(earlier, d.details.get("slow_line"), alpha=ALPHA,
+                                min_improvement=MIN_IMPROVEMENT)
     dt = next(r for r in d.ranking if r["physics"] == "dead_time")
     return {"family": family, "class": cls, "level": level, "seed": seed,
             "effect": c.effect, "noise_frac": c.noise_frac, "theta": c.theta,
@@ -94,7 +103,7 @@ def one(family: str, cls: str, level: int, seed: int) -> dict:
                                                        "improvement_kstep", "p_full",
                                                        "p_k_step")}
                                     for r in d.ranking]),
-            "slip_jump_p": slip}
+            "slip_jump_p": slip, "slow_line": slow_line_evidence(d)}
 
 
 def _named(g: pd.DataFrame, label: str) -> str:

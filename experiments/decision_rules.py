@@ -52,6 +52,7 @@ Run: ``.venv/bin/python experiments/decision_rules.py`` after ``make concealed``
 
 from __future__ import annotations
 
+import functools
 import json
 import sys
 from collections.abc import Callable
@@ -65,7 +66,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from concealed import best_setting, decide, own_resolution_of  # noqa: E402
+from concealed import (  # noqa: E402
+    best_setting,
+    decide,
+    own_resolution_of,
+    with_slow_line,
+)
 
 from stictionbench.diagnosis.evidence import (  # noqa: E402
     ALPHA,
@@ -111,6 +117,17 @@ def shipped(row: pd.Series) -> str:
     return decide(row, ALPHA, MIN_IMPROVEMENT)
 
 
+def _looked(rule: Callable[..., str]) -> Callable[..., str]:
+    """``rule`` (a main-band rule) followed by the package's second look for a slow line
+    at the shipped thresholds (:func:`concealed.with_slow_line`): every rule here differs
+    from the shipped one in the main band only."""
+    @functools.wraps(rule)
+    def looked(row: pd.Series, *args: float) -> str:
+        return with_slow_line(row, rule(row, *args), ALPHA, MIN_IMPROVEMENT)
+    return looked
+
+
+@_looked
 def sensor_lag_own_resolution(row: pd.Series) -> str:
     rows, slip, own, cycle = _context(row)
     for r in rows:
@@ -121,6 +138,7 @@ def sensor_lag_own_resolution(row: pd.Series) -> str:
                   own_resolution=own, cycle_reproduced=cycle)
 
 
+@_looked
 def winner_gated(row: pd.Series) -> str:
     rows, slip, own, cycle = _context(row)
     tested = [r for r in rows if r["physics"] != "none" and r["p_value"] < ALPHA
@@ -133,6 +151,7 @@ def winner_gated(row: pd.Series) -> str:
     return shipped(row) if best["physics"] in VALVE_HYPOTHESES else best["physics"]
 
 
+@_looked
 def bic_only(row: pd.Series) -> str:
     rows, slip, own, cycle = _context(row)
     free = [{**r, "p_value": 0.0} for r in rows]  # the LR test switched off
@@ -145,6 +164,7 @@ def bic_only(row: pd.Series) -> str:
     return best
 
 
+@_looked
 def kstep_gate(row: pd.Series, threshold: float) -> str:
     rows, slip, own, cycle = _context(row)
     for r in rows:
@@ -170,6 +190,7 @@ def holm_adjust(rows: list[dict]) -> list[dict]:
     return out
 
 
+@_looked
 def holm_gate(row: pd.Series, alpha: float, gate: float) -> str:
     rows, slip, own, cycle = _context(row)
     return select(holm_adjust(rows), slip, alpha=alpha, min_improvement=gate,
@@ -183,6 +204,7 @@ def _has_keys(df: pd.DataFrame, *keys: str) -> bool:
                                  for k in keys)
 
 
+@_looked
 def full_data_lr(row: pd.Series, alpha: float, gate: float) -> str:
     rows, slip, own, cycle = _context(row)
     for r in rows:

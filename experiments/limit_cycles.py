@@ -70,6 +70,7 @@ from stictionbench.diagnosis.evidence import (  # noqa: E402
     ALPHA,
     MIN_IMPROVEMENT,
     OWN_RESOLUTION,
+    after_second_look,
     select,
 )
 from stictionbench.io import atomic_path, write_text  # noqa: E402
@@ -143,10 +144,15 @@ def _evidence(d: Diagnosis) -> dict:
     rule = {"alpha": ALPHA, "min_improvement": MIN_IMPROVEMENT,
             "own_resolution": OWN_RESOLUTION if d.details["dead_time_own_resolution"]
             else frozenset()}
+    look = d.details.get("slow_line")  # the second look, kept in every variant
+
+    def decided(**kw) -> str:
+        return after_second_look(select(d.ranking, slip, **rule, **kw), look,
+                                 alpha=ALPHA, min_improvement=MIN_IMPROVEMENT)
+
     return {"shipped": d.missing_physics,
-            "ablation": select(d.ranking, slip, **rule),
-            "band": select(d.ranking, slip, **rule,
-                           cycle_reproduced=bool(band is not None and band.reproduced)),
+            "ablation": decided(),
+            "band": decided(cycle_reproduced=bool(band is not None and band.reproduced)),
             "cycle_applicable": bool(cyc.get("applicable", False)),
             "cycle_reproduced": bool(cyc.get("reproduced", False)),
             "band_reproduced": bool(band is not None and band.reproduced),

@@ -136,3 +136,23 @@ def test_full_data_lr_decides_by_the_test_on_every_block():
     assert dr.full_data_lr(row, 0.001, 0.1) == "none"
     assert dr._has_keys(pd.DataFrame([row]), "p_full", "p_k_step")
     assert not dr._has_keys(pd.DataFrame([_row()]), "p_full")
+
+
+def test_every_rule_applies_the_second_look_where_the_main_band_names_nothing():
+    none_row = _row(lag_improvement=0.03)
+    ev = [e for e in json.loads(none_row["evidence"]) if e["physics"] == "none"]
+    look = {"corner_period_s": 300.0, "row": {
+        "physics": "oscillatory_disturbance", "p_value": 1e-5, "improvement": 0.4,
+        "at_bound": False, "parameters": {"period": 700.0}}}
+    row = none_row.copy()
+    row["evidence"], row["slow_line"] = json.dumps(ev), json.dumps(look)
+    for rule in (dr.shipped, dr.winner_gated, dr.bic_only, dr.sensor_lag_own_resolution):
+        assert rule(row) == "oscillatory_disturbance", rule.__name__
+    assert dr.holm_gate(row, 0.05, 0.1) == "oscillatory_disturbance"
+    # not where the line is no slower than the corner, nor where the main band names
+    fast = row.copy()
+    fast["slow_line"] = json.dumps({**look, "corner_period_s": 800.0})
+    assert dr.shipped(fast) == "none"
+    named = _row()
+    named["slow_line"] = json.dumps(look)
+    assert dr.shipped(named) == "dead_time"

@@ -17,7 +17,7 @@ import stictionbench as sb
 from stictionbench.cli import main
 from stictionbench.diagnosis import VOCABULARY, NominalModel, diagnose
 from stictionbench.diagnosis.diagnose import compare, fit, hypothesise, locate, validate
-from stictionbench.diagnosis.evidence import failed_gates, passes, select
+from stictionbench.diagnosis.evidence import failed_gates, passes, select, slow_line_named
 from stictionbench.diagnosis.hypotheses import HYPOTHESES, Context
 from stictionbench.diagnosis.locate import dominant_periods, tone_periods
 from stictionbench.diagnosis.noise import fit_noise_model, input_independence, ljung_box, lr_test
@@ -107,6 +107,47 @@ def test_short_disturbance_in_a_tight_loop_is_named():
     d0 = diagnose(_rec(**plant), m)
     assert d0.missing_physics == "none"
     assert d0.details["lowpass_hz"] == pytest.approx(5.0 / (2 * math.pi * 40.0))
+
+
+def test_slow_line_past_the_main_band_is_named_by_the_second_look():
+    # τ + θ = 20 s: the main band's high-pass corner is 419 s and its longest searched
+    # period 838 s; a 900 s line of half a unit is invisible there (p 1) and is found in
+    # the band with a third of that high-pass, at its period
+    quiet = dict(sensor__time_constant=0.0)
+    d = diagnose(_rec(**quiet, disturbance="sinusoidal", disturbance__amplitude=0.5,
+                      disturbance__period=900.0), NOM)
+    look = d.details["slow_line"]
+    assert look["named"] and look["corner_period_s"] == pytest.approx(2 * math.pi * 20 / 0.3)
+    assert d.missing_physics == "oscillatory_disturbance"
+    assert d.parameters["period"] == pytest.approx(900.0, rel=0.01)
+    assert d.details["highpass_hz"] == pytest.approx(look["highpass_hz"])
+    # the ranking is the main band's, where the line was not significant
+    main_row = next(r for r in d.ranking if r["physics"] == "oscillatory_disturbance")
+    assert not main_row["significant"]
+    assert {"stiction", "dead_time", "sensor_lag"} <= {r["physics"] for r in d.ranking}
+    assert look["oscillatory_disturbance"]["significant"]
+    assert d.fit["improved"] < 0.8 * d.fit["nominal"]
+    # nothing slow in the loop: the look runs, names nothing, and the main band's verdict
+    # and numbers stand
+    d0 = diagnose(_rec(**quiet), NOM)
+    assert d0.missing_physics == "none" and not d0.details["slow_line"]["named"]
+    # a verdict of the main band is never replaced, and without a model there is no look
+    assert "slow_line" not in diagnose(_rec(**quiet, disturbance="sinusoidal",
+                                            disturbance__amplitude=0.5,
+                                            disturbance__period=600.0), NOM).details
+
+
+def test_slow_line_rule():
+    row = {"physics": "oscillatory_disturbance", "p_value": 1e-4, "improvement": 0.3,
+           "at_bound": False, "parameters": {"period": 500.0}}
+    kw = dict(alpha=0.05, min_improvement=0.1)
+    assert slow_line_named("none", row, 400.0, **kw)
+    assert not slow_line_named("sensor_lag", row, 400.0, **kw)  # the main band's stands
+    assert not slow_line_named("none", row, 500.0, **kw)        # not slower than the corner
+    assert not slow_line_named("none", {**row, "improvement": 0.05}, 400.0, **kw)
+    assert not slow_line_named("none", {**row, "p_value": 0.2}, 400.0, **kw)
+    assert not slow_line_named("none", {**row, "at_bound": True}, 400.0, **kw)
+    assert not slow_line_named("none", None, 400.0, **kw)
 
 
 def test_residual_line_band_only_with_a_given_model(monkeypatch):

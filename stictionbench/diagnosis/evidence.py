@@ -307,6 +307,35 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
     return pick
 
 
+def slow_line_named(pick: str, row: dict[str, Any] | None, corner_period_s: float, *,
+                    alpha: float, min_improvement: float) -> bool:
+    """Whether the second look's oscillatory disturbance (:func:`.diagnose.second_look`:
+    the line fitted again in a band whose slow-load high-pass is a third as high) is
+    named: only where the main band named nothing (``pick`` is ``none``), only a line
+    slower than the main band's high-pass corner period ``corner_period_s`` (a line the
+    main band attenuates; a faster one the main band saw as well) and only when it passes
+    the gates of :func:`passes` in its own band. In the wide band a slow load and the slow
+    part of other physics enter too: where the main band names a hypothesis, the wide
+    band's slow line is not preferred to it (``experiments/slow_line.py`` scores both)."""
+    if pick != "none" or row is None or row.get("physics") != "oscillatory_disturbance":
+        return False
+    period = float(row.get("parameters", {}).get("period", 0.0))
+    return period > corner_period_s and passes(row, alpha, min_improvement)
+
+
+def after_second_look(pick: str, look: dict[str, Any] | None, *, alpha: float,
+                      min_improvement: float) -> str:
+    """``pick`` (a main-band verdict), or the oscillatory disturbance where the second
+    look's line is named (:func:`slow_line_named`); ``look`` is a diagnosis's
+    ``details["slow_line"]`` (``None``: the look did not run). For re-deciding a
+    diagnosis by another main-band rule with the look kept as shipped."""
+    if look and slow_line_named(pick, look["oscillatory_disturbance"],
+                                look["corner_period_s"], alpha=alpha,
+                                min_improvement=min_improvement):
+        return "oscillatory_disturbance"
+    return pick
+
+
 def _bic(row: dict[str, Any]) -> float:
     """A row's BIC (``raw_score``, or the ranking's ``score``: the same up to a constant)."""
     return float(row.get("raw_score", row.get("score", 0.0)))

@@ -102,6 +102,21 @@ def estimated_mv(d: Diagnosis) -> np.ndarray:
     return HYPOTHESES[d.missing_physics].valve_output(ctx, d.fits[d.missing_physics].p)
 
 
+def _slow_line_lines(d: Diagnosis) -> list[str]:
+    """The second look for a slow line (:func:`.diagnose.second_look`), when it ran."""
+    look = d.details.get("slow_line")
+    if not look:
+        return []
+    r = look["oscillatory_disturbance"]
+    said = "named it" if look["named"] else "named nothing"
+    return [f"- Second look for a slow line (the main band, high-pass corner period "
+            f"{look['corner_period_s']:.0f} s, named nothing): with the high-pass at "
+            f"{look['highpass_hz']:.3g} Hz a line of period "
+            f"{r['parameters'].get('period', float('nan')):.0f} s improves the validation "
+            f"NRMSE by {r['improvement']:.0%} (p = {r['p_value']:.2g}); the look {said}"
+            + (" (the table below is the main band's)." if look["named"] else ".")]
+
+
 def _gate_lines(d: Diagnosis) -> list[str]:
     """Why a valve hypothesis that beats the nominal model was not credited (model-free:
     it must also beat the linear loop re-identified under the same criterion)."""
@@ -179,6 +194,7 @@ def summary_markdown(d: Diagnosis) -> str:
           if d.details.get(k)],
         *[f"- Not tested: {k} ({why})." for k, why in d.details.get("not_tested", {}).items()],
         *_gate_lines(d),
+        *_slow_line_lines(d),
         *_residual_lines(d),
         "",
         "| physics | score (0 = best) | validation NRMSE | improvement | p-value | chosen |",
