@@ -144,15 +144,16 @@ def run_one(job: dict) -> dict:
 
 def slow_line_evidence(d) -> str:
     """The second look's line (:func:`stictionbench.diagnosis.diagnose.second_look`) as
-    stored evidence: its row's gates and period, and the main band's corner period; an
-    empty string when the look did not run."""
+    stored evidence, shaped like the diagnosis's ``details["slow_line"]``: its row's gates
+    and period, and the main band's corner period; an empty string when the look did not
+    run."""
     look = d.details.get("slow_line")
     if look is None:
         return ""
     r = look["oscillatory_disturbance"]
     return json.dumps({"corner_period_s": look["corner_period_s"],
-                       "row": {k: r[k] for k in ("physics", "p_value", "improvement",
-                                                 "at_bound", "parameters")}})
+                       "oscillatory_disturbance": {k: r[k] for k in (
+                           "physics", "p_value", "improvement", "at_bound", "parameters")}})
 
 
 def own_resolution_of(row: pd.Series) -> frozenset[str]:
@@ -167,12 +168,8 @@ def with_slow_line(row: pd.Series, pick: str, alpha: float, min_improvement: flo
     look was stored only where the package's defaults named nothing in the main band
     (rows stored before the look have none)."""
     look = row.get("slow_line")
-    if not (isinstance(look, str) and look):
-        return pick
-    look = json.loads(look)
-    return after_second_look(pick, {"oscillatory_disturbance": look["row"],
-                                    "corner_period_s": look["corner_period_s"]},
-                             alpha=alpha, min_improvement=min_improvement)
+    return after_second_look(pick, json.loads(look) if isinstance(look, str) and look
+                             else None, alpha=alpha, min_improvement=min_improvement)
 
 
 def decide(row: pd.Series, alpha: float, min_improvement: float) -> str:

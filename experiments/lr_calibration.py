@@ -44,6 +44,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
+import fresh_recordings as fresh  # noqa: E402
 from concealed import run_one, write_job  # noqa: E402
 from concealed_families import make_recording  # noqa: E402
 from decision_rules import CALIBRATION_ALPHAS, holm_picks, shipped  # noqa: E402
@@ -102,14 +103,9 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=24, help="seeds per family and level")
     ap.add_argument("--jobs", type=int, default=2)
     a = ap.parse_args(argv)
-    from joblib import Parallel, delayed
-    from tqdm import tqdm
-
     with tempfile.TemporaryDirectory() as tmp:
         todo = jobs(a.seeds, Path(tmp))
-        rows = list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator")(
-            delayed(run_one)(j) for j in todo), total=len(todo), desc="diagnose"))
-    df = pd.DataFrame(rows)
+        df = fresh.run(run_one, [(j,) for j in todo], a.jobs)
     df["controller_s"] = [j["controller_s"] for j in todo]
     df["quantised"] = [j["quantised"] for j in todo]
     # the calibration's evidence and verdicts (the recordings themselves are not kept)

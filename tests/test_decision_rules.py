@@ -141,7 +141,7 @@ def test_full_data_lr_decides_by_the_test_on_every_block():
 def test_every_rule_applies_the_second_look_where_the_main_band_names_nothing():
     none_row = _row(lag_improvement=0.03)
     ev = [e for e in json.loads(none_row["evidence"]) if e["physics"] == "none"]
-    look = {"corner_period_s": 300.0, "row": {
+    look = {"corner_period_s": 300.0, "oscillatory_disturbance": {
         "physics": "oscillatory_disturbance", "p_value": 1e-5, "improvement": 0.4,
         "at_bound": False, "parameters": {"period": 700.0}}}
     row = none_row.copy()
