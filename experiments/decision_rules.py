@@ -12,7 +12,11 @@ included:
 - ``sensor_lag_own_resolution`` — the measurement lag judged like the dead time (never
   named at or under one sample time, otherwise an NRMSE improvement at all): on the seen
   holdout blocks 8 of the 11 level-2 sensor lags missed were named a dead time, the lag
-  of lower BIC failing only the 10 % gate the dead time is exempt from;
+  of lower BIC failing only the 10 % gate the dead time is exempt from. The shipped rule
+  has since taken the narrower form (``evidence.select``'s ``rivals_on_own_standard``: a
+  dead time named on its exemption alone gives way to a sensor lag meeting the same
+  standard with the lower BIC), which never names physics where no dead time was named;
+  this alternative still differs from it there, naming a lag on any improvement;
 - ``winner_gated`` — the lowest-BIC hypothesis among those passing the likelihood-ratio
   test must also pass the effect-size gate, else ``none`` (a lighter-gated rival is not
   named over a better-fitting one that failed its gate);

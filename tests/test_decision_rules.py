@@ -14,10 +14,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
 import decision_rules as dr  # noqa: E402
 
 
-def _row(lag_tau: float = 3.0, lag_improvement: float = 0.03) -> pd.Series:
+def _row(lag_tau: float = 3.0, lag_improvement: float = 0.03,
+         delay_p: float = 1e-3) -> pd.Series:
     ev = [{"physics": "none", "p_value": 1.0, "improvement": 0.0, "score": 12.0,
            "at_bound": False, "parameters": {}},
-          {"physics": "dead_time", "p_value": 1e-3, "improvement": 0.03, "score": 2.0,
+          {"physics": "dead_time", "p_value": delay_p, "improvement": 0.03, "score": 2.0,
            "at_bound": False, "parameters": {"dead_time": 13.0}},
           {"physics": "sensor_lag", "p_value": 1e-3, "improvement": lag_improvement,
            "score": 0.0, "at_bound": False, "parameters": {"time_constant": lag_tau}}]
@@ -27,9 +28,14 @@ def _row(lag_tau: float = 3.0, lag_improvement: float = 0.03) -> pd.Series:
 
 def test_the_lag_of_lower_bic_is_named_only_when_judged_by_its_own_resolution():
     row = _row()
-    assert dr.shipped(row) == "dead_time"
+    # shipped: the dead time, named on its own resolution only, gives way to the lag that
+    # meets the same standard with the lower BIC
+    assert dr.shipped(row) == "sensor_lag"
     assert dr.sensor_lag_own_resolution(row) == "sensor_lag"
-    # at or under one sample the lag is never named
+    # where no dead time is significant, only the alternative names the lag
+    assert dr.shipped(_row(delay_p=0.2)) == "none"
+    assert dr.sensor_lag_own_resolution(_row(delay_p=0.2)) == "sensor_lag"
+    # at or under one sample the alternative never names the lag
     assert dr.sensor_lag_own_resolution(_row(lag_tau=1.0)) == "dead_time"
 
 
@@ -155,4 +161,4 @@ def test_every_rule_applies_the_second_look_where_the_main_band_names_nothing():
     assert dr.shipped(fast) == "none"
     named = _row()
     named["slow_line"] = json.dumps(look)
-    assert dr.shipped(named) == "dead_time"
+    assert dr.shipped(named) == "sensor_lag"
