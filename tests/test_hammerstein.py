@@ -115,6 +115,18 @@ def test_choudhury_valve_identified_with_its_restart_rule_against_a_given_model(
     assert fit_hammerstein(rec).stop_rule != "choudhury"
 
 
+def test_held_process_keeps_the_given_dead_time_within_a_sample():
+    # a linear valve whose loop has 3 s more dead time than the model says: with the
+    # process held, the valve search may move the timing by one sample at most (the
+    # recording convention, the nominal's own freedom), not credit a valve with the
+    # delay; the shifts of the linear loop and the valve grid used to add up (12 s here)
+    rec = _rec("linear", process__dead_time=13.0)
+    r = fit_hammerstein(rec, linear=(3.0, 10.0, 10.0), fix_process=True)
+    for p in (r.process, r.linear_process):
+        assert abs(p["dead_time"] - 10.0) <= 1.0 + 1e-9
+    assert r.process["time_constant"] == 10.0
+
+
 def test_kano_valve_under_a_faster_pi_stays_stiction_with_choudhurys_rule_searched():
     # a Kano valve (S 4, J 2) in a fast loop (τ 2 s, θ 1 s) whose PI executes every 0.2 s
     # (reports/diagnose/fast_loops.md): with the stop rule chosen by the output error,

@@ -322,11 +322,16 @@ def hypothesise(cmp: Comparison, loc: Location,
 
 def _identify_valve(cmp: Comparison, alpha: float) -> HammersteinResult:
     """The closed-loop Hammerstein identification (process held at a given model,
-    re-identified otherwise), high-passed like the hypotheses' fits (``cmp.hp_factor``)."""
+    re-identified otherwise), high-passed like the hypotheses' fits (``cmp.hp_factor``).
+    A held process starts from the model's own dead time, its timing searched within a
+    sample (``hammerstein._held_shifts``), not from the linear nominal's alignment, which
+    the valve's lag biases; an identified one from the nominal's aligned dead time."""
     m = cmp.model
-    theta = max(m.dead_time + cmp.nominal.extra.get("timing_shift_s", 0.0), 0.0)
+    given = m.source == "given"
+    shift = 0.0 if given else cmp.nominal.extra.get("timing_shift_s", 0.0)
+    theta = max(m.dead_time + shift, 0.0)
     return fit_hammerstein(cmp.rec, alpha=alpha, linear=(m.gain, m.time_constant, theta),
-                           fix_process=m.source == "given", hp_factor=cmp.hp_factor)
+                           fix_process=given, hp_factor=cmp.hp_factor)
 
 
 def _adopt_linear(cmp: Comparison, h: HammersteinResult) -> bool:

@@ -227,12 +227,23 @@ def _nelder_mead(crit: _Criterion, f, z0: np.ndarray, steps, maxiter: int
     return float(res.fun) * scale, res.x
 
 
+def _held_shifts(crit: _Criterion) -> tuple[float, ...]:
+    """Dead-time shifts searched with the process held at a given model: up to one sample
+    either way, on a half-sample grid, around the model's ``θ`` — the recording
+    convention (OP stored before or after the controller executed), the freedom the
+    nominal model's alignment has (:func:`.diagnose.compare`). Not around the nominal's
+    aligned ``θ``: a valve's own lag biases that alignment (a dead band of 0.4 % aligned
+    the linear nominal one sample late), and the shifts would add up; a wider search
+    credited a valve with a dead-time mismatch (a dead band of 0.01 % carrying 3 s)."""
+    return tuple(d * crit.Ts for d in (0.0, -0.5, 0.5, -1.0, 1.0))
+
+
 def _linear(crit: _Criterion, tau0: float, theta0: float) -> tuple[float, float, float]:
     """Linear loop under the current noise model: Nelder–Mead over ``(ln τ, θ/Ts)``
     (dimensionless coordinates: the search does not depend on the unit of time)."""
     if crit.fixed:
         return min((crit.cost(0.0, 0.0, 0, tau0, theta0 + d), tau0, theta0 + d)
-                   for d in (0.0, -crit.Ts, crit.Ts) if theta0 + d >= 0)
+                   for d in _held_shifts(crit) if theta0 + d >= 0)
     (tlo, thi), (dlo, dhi) = _bounds(crit, tau0, theta0)
 
     def unpack(z):
@@ -273,9 +284,9 @@ def _valve_grid(crit: _Criterion, tau0: float, theta0: float) -> list[tuple[floa
               for S in Ss for j in js if j >= _j_floor(rule)]
     if crit.fixed:
         # a given model: only the recording convention (OP stored before or after the
-        # controller executed, ±1 sample of dead time) is left open
-        shifts = (0.0, -crit.Ts, crit.Ts)
-        return _batch(crit, valves, [(tau0, theta0 + d) for d in shifts if theta0 + d >= 0])
+        # controller executed) is left open, as for every other hypothesis
+        return _batch(crit, valves, [(tau0, theta0 + d) for d in _held_shifts(crit)
+                                     if theta0 + d >= 0])
     taus = sorted({max(tau0 * f, 0.5 * crit.Ts) for f in (1.0, 0.3, 0.08)})
     thetas = sorted({theta0, 0.5 * theta0, 0.0})
     processes = [(a, b) for a in taus for b in thetas]
@@ -463,7 +474,9 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
     # 1. output-error fits (white H): the linear loop, then the valve on a grid and by
     #    joint refinement of valve and process
     _, tau_l, theta_l = _linear(crit, tau0, theta0)
-    grid = _valve_grid(crit, tau_l, theta_l)
+    # with the process held, the valve's timing is searched around the given θ, not
+    # around the linear loop's shifted one (the shifts would add up: _held_shifts)
+    grid = _valve_grid(crit, tau_l, theta0 if crit.fixed else theta_l)
     per_rule: dict[int, tuple[float, tuple]] = {}  # the best valve of every stop rule
     for _, q in _seeds(grid, len(searched_rules(crit.fixed)) + 1):
         _, q = _refine(crit, q, tau_l, theta_l)
