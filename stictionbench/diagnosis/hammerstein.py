@@ -284,7 +284,7 @@ def _valve_grid(crit: _Criterion, tau0: float, theta0: float) -> list[tuple[floa
               for S in Ss for j in js if j >= _j_floor(rule)]
     if crit.fixed:
         # a given model: only the recording convention (OP stored before or after the
-        # controller executed) is left open, as for every other hypothesis
+        # controller executed) is left open, the freedom of the nominal's alignment
         return _batch(crit, valves, [(tau0, theta0 + d) for d in _held_shifts(crit)
                                      if theta0 + d >= 0])
     taus = sorted({max(tau0 * f, 0.5 * crit.Ts) for f in (1.0, 0.3, 0.08)})
