@@ -125,21 +125,32 @@ def run_one(job: dict) -> dict:
     d = diagnose(rec, pem=pem) if job.get("model_free") else \
         diagnose(rec, load_model(job["model"]), pem=pem)
     seconds = time.perf_counter() - t0
-    evidence = [{"physics": r["physics"], "p_value": r["p_value"],
-                 "improvement": r["improvement"], "score": r["score"],
-                 "improvement_kstep": r["improvement_kstep"], "p_full": r["p_full"],
-                 "p_k_step": r["p_k_step"],
-                 "at_bound": r["at_bound"], "parameters": r["parameters"]}
-                for r in d.ranking]
     slip = d.tests.get("slip_jump_zero", {}).get("p_value")
     cycle = bool(d.tests.get("closed_loop_cycle", {}).get("reproduced", False))
     excited = bool(d.details["dead_time_own_resolution"])
     return {k: job[k] for k in ("name", "family", "class", "level", "seed", "effect",
                                 "noise_frac")} | {
         "predicted_default": d.missing_physics, "truth": json.dumps(job["truth"]),
-        "evidence": json.dumps(evidence), "slip_jump_p": slip, "cycle_reproduced": cycle,
+        "evidence": stored_evidence(d), "slip_jump_p": slip, "cycle_reproduced": cycle,
         "dead_time_own_resolution": excited, "slow_line": slow_line_evidence(d),
         "seconds": seconds}
+
+
+def stored_evidence(d) -> str:
+    """A diagnosis's ranking as the stored evidence the decision rules re-decide
+    (:func:`decide`, ``experiments/decision_rules.py``): each hypothesis's tests, effect
+    sizes and parameters, and for the valve hypotheses the closed-loop valve
+    identification's own in-sample test (``p_identification``)."""
+    ham = d.details.get("hammerstein") or {}
+    p_ident = ham.get("tests", {}).get("valve_vs_linear", {}).get("p_value")
+    return json.dumps([{"physics": r["physics"], "p_value": r["p_value"],
+                        "improvement": r["improvement"], "score": r["score"],
+                        "improvement_kstep": r["improvement_kstep"], "p_full": r["p_full"],
+                        "p_k_step": r["p_k_step"],
+                        "p_identification": p_ident if r["physics"] in VALVE_HYPOTHESES
+                        else None,
+                        "at_bound": r["at_bound"], "parameters": r["parameters"]}
+                       for r in d.ranking])
 
 
 def slow_line_evidence(d) -> str:

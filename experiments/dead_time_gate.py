@@ -29,7 +29,6 @@ Run: ``.venv/bin/python experiments/dead_time_gate.py [--seeds 6] [--none-seeds 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -45,7 +44,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 import fresh_recordings as fresh  # noqa: E402
-from concealed import slow_line_evidence  # noqa: E402
+from concealed import slow_line_evidence, stored_evidence  # noqa: E402
 
 from stictionbench.diagnosis import diagnose  # noqa: E402
 from stictionbench.diagnosis.evidence import (  # noqa: E402
@@ -98,11 +97,7 @@ def one(family: str, cls: str, level: int, seed: int) -> dict:
             "dead_time_fit": dt["parameters"].get("dead_time", np.nan),
             "dead_time_p": dt["p_value"], "dead_time_improvement": dt["improvement"],
             "dead_time_at_bound": dt["at_bound"],
-            "evidence": json.dumps([{k: r[k] for k in ("physics", "p_value", "improvement",
-                                                       "score", "at_bound", "parameters",
-                                                       "improvement_kstep", "p_full",
-                                                       "p_k_step")}
-                                    for r in d.ranking]),
+            "evidence": stored_evidence(d),
             "slip_jump_p": slip, "slow_line": slow_line_evidence(d)}
 
 

@@ -162,3 +162,38 @@ def test_every_rule_applies_the_second_look_where_the_main_band_names_nothing():
     named = _row()
     named["slow_line"] = json.dumps(look)
     assert dr.shipped(named) == "sensor_lag"
+
+
+def _valve_row(p_validation: float, p_identification: float | None,
+               improvement: float = 0.2) -> pd.Series:
+    ev = [{"physics": "none", "p_value": 1.0, "improvement": 0.0, "score": 9.0,
+           "at_bound": False, "parameters": {}, "p_identification": None},
+          {"physics": "deadband", "p_value": p_validation, "improvement": improvement,
+           "score": 0.0, "at_bound": False, "parameters": {"deadband": 2.0},
+           "p_identification": p_identification},
+          {"physics": "stiction", "p_value": p_validation, "improvement": improvement,
+           "score": 3.0, "at_bound": False, "parameters": {"S": 2.0, "J": 0.0},
+           "p_identification": p_identification}]
+    return pd.Series({"evidence": json.dumps(ev), "slip_jump_p": 1.0,
+                      "dead_time_own_resolution": True, "class": "deadband", "level": 2})
+
+
+def test_valve_identification_test_replaces_the_validation_test_for_valves_only():
+    # the validation test fails, the identification's passes: only the alternative names
+    assert dr.shipped(_valve_row(0.3, 1e-6)) == "none"
+    assert dr.valve_identification_test(_valve_row(0.3, 1e-6)) == "deadband"
+    # the NRMSE gate still applies
+    assert dr.valve_identification_test(_valve_row(0.3, 1e-6, improvement=0.02)) == "none"
+    # and so does the identification's own verdict
+    assert dr.valve_identification_test(_valve_row(1e-6, 0.3)) == "none"
+    # evidence stored without the identification's p: the shipped rule
+    assert dr.valve_identification_test(_valve_row(1e-6, None)) == "deadband"
+
+
+def test_calibration_reports_the_identification_test_alone_where_stored():
+    rows = [_valve_row(0.3, p) for p in (1e-6, 0.5, 0.2, 0.01)]
+    df = pd.DataFrame(rows).assign(**{"class": "none"})
+    cal = dr.calibration(df)
+    assert cal[f"valve identification test alone, alpha {dr.ALPHA:g}"].startswith("2/4")
+    old = pd.DataFrame([_row()]).assign(**{"class": "none"})
+    assert not any(k.startswith("valve identification") for k in dr.calibration(old))
