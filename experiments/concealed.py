@@ -61,10 +61,12 @@ from concealed_families import (  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.evidence import (  # noqa: E402
+    FULL_DATA_ALPHA,
     OWN_RESOLUTION,
     VALVE_HYPOTHESES,
     after_second_look,
     failed_gates,
+    range_fallback,
     select,
 )
 from stictionbench.io import atomic_directory, read_recording  # noqa: E402
@@ -183,14 +185,36 @@ def with_slow_line(row: pd.Series, pick: str, alpha: float, min_improvement: flo
                              else None, alpha=alpha, min_improvement=min_improvement)
 
 
-def decide(row: pd.Series, alpha: float, min_improvement: float) -> str:
+def with_range_fallback(row: pd.Series, pick: str,
+                        alpha_full: float = FULL_DATA_ALPHA) -> str:
+    """``pick`` (after the second look), or the range hypothesis named by the full-data
+    test (:func:`~stictionbench.diagnosis.evidence.range_fallback`) where the package
+    would apply it: where the second look ran (a given model, prediction-error fits, the
+    main band naming nothing; its stored line is non-empty) and named nothing."""
+    look = row.get("slow_line")
+    if pick != "none" or not (isinstance(look, str) and look):
+        return pick
+    return range_fallback(pick, json.loads(row["evidence"]), alpha_full=alpha_full)
+
+
+def after_main_band(row: pd.Series, pick: str, alpha: float, min_improvement: float,
+                    alpha_full: float = FULL_DATA_ALPHA) -> str:
+    """A main-band verdict followed by what the package does after it: the second look
+    (:func:`with_slow_line`), then the range hypotheses' full-data test
+    (:func:`with_range_fallback`)."""
+    return with_range_fallback(row, with_slow_line(row, pick, alpha, min_improvement),
+                               alpha_full)
+
+
+def decide(row: pd.Series, alpha: float, min_improvement: float,
+           alpha_full: float = FULL_DATA_ALPHA) -> str:
     """The shipped decision re-applied to one stored row at other thresholds: the main
     band's rule (:func:`~stictionbench.diagnosis.evidence.select`), then the second
-    look (:func:`with_slow_line`)."""
+    look and the full-data test of the range hypotheses (:func:`after_main_band`)."""
     pick = select(json.loads(row["evidence"]), row["slip_jump_p"], alpha=alpha,
                   min_improvement=min_improvement, own_resolution=own_resolution_of(row),
                   cycle_reproduced=bool(row.get("cycle_reproduced", False)))
-    return with_slow_line(row, pick, alpha, min_improvement)
+    return after_main_band(row, pick, alpha, min_improvement, alpha_full)
 
 
 def picks(df: pd.DataFrame, alpha: float, min_improvement: float) -> pd.Series:

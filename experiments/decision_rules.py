@@ -42,6 +42,13 @@ included:
   identification rejected the linear loop by a wide margin where the validation test
   did not; whether that test keeps its level on healthy loops is the calibration
   table's last column;
+- ``range_fallback`` — the shipped rule with the full-data test of the range hypotheses
+  (:func:`stictionbench.diagnosis.evidence.range_fallback`: a travel limit or a curved
+  installed characteristic named where nothing else was, by the likelihood ratio on every
+  block) at the level tuned here on the three families over :data:`RANGE_GRID` (0: off;
+  ties to the smaller level); the shipped level is
+  :data:`~stictionbench.diagnosis.evidence.FULL_DATA_ALPHA`.
+  ``without_range_fallback`` is the shipped rule before that test was added;
 - ``full_data_lr`` — the one-step likelihood ratio on every block (training and
   validation, ``p_full`` in the ranking: the classic prediction-error test, about 2.5
   times the samples of the validation test) in place of the validation one, Bonferroni
@@ -80,10 +87,10 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from concealed import (  # noqa: E402
+    after_main_band,
     best_setting,
     decide,
     own_resolution_of,
-    with_slow_line,
 )
 
 from stictionbench.diagnosis.evidence import (  # noqa: E402
@@ -116,6 +123,8 @@ TS = 1.0
 KSTEP_GRID = (0.002, 0.005, 0.01, 0.02, 0.03, 0.05, 0.08)
 #: (family-wise alpha, NRMSE gate) pairs of ``holm_gate`` tried on the three families
 HOLM_GRID = tuple((a, g) for a in (0.01, 0.03, 0.05, 0.1) for g in (0.0, 0.02, 0.05, 0.1))
+#: levels of the range hypotheses' full-data test tried on the three families (0: off)
+RANGE_GRID = (0.0, 1e-12, 1e-10, 1e-8, 1e-6, 1e-4)
 #: family-wise levels of the calibration table (no effect-size gate)
 CALIBRATION_ALPHAS = (0.01, 0.05)
 
@@ -131,13 +140,25 @@ def shipped(row: pd.Series) -> str:
 
 
 def _looked(rule: Callable[..., str]) -> Callable[..., str]:
-    """``rule`` (a main-band rule) followed by the package's second look for a slow line
-    at the shipped thresholds (:func:`concealed.with_slow_line`): every rule here differs
-    from the shipped one in the main band only."""
+    """``rule`` (a main-band rule) followed by what the package does after the main band
+    at the shipped thresholds (:func:`concealed.after_main_band`: the second look for a
+    slow line, the range hypotheses' full-data test): every rule here differs from the
+    shipped one in the main band only."""
     @functools.wraps(rule)
     def looked(row: pd.Series, *args: float) -> str:
-        return with_slow_line(row, rule(row, *args), ALPHA, MIN_IMPROVEMENT)
+        return after_main_band(row, rule(row, *args), ALPHA, MIN_IMPROVEMENT)
     return looked
+
+
+def range_fallback_at(row: pd.Series, alpha_full: float) -> str:
+    """The shipped rule with the range hypotheses' full-data test at ``alpha_full``
+    (0: without it)."""
+    return decide(row, ALPHA, MIN_IMPROVEMENT, alpha_full)
+
+
+def without_range_fallback(row: pd.Series) -> str:
+    """The shipped rule before the range hypotheses' full-data test was added."""
+    return range_fallback_at(row, 0.0)
 
 
 @_looked
@@ -265,6 +286,8 @@ TUNED: dict[str, Tuned] = {
                        ("family-wise alpha", "NRMSE gate")),
     "full_data_lr": Tuned(full_data_lr, HOLM_GRID, _larger_gate, ("alpha", "NRMSE gate"),
                           ("p_full", "p_k_step")),
+    "range_fallback": Tuned(range_fallback_at, tuple((a,) for a in RANGE_GRID),
+                            lambda s: -s[0], ("full-data alpha",), ("p_full",)),
 }
 
 
@@ -308,7 +331,8 @@ def calibration(df: pd.DataFrame) -> dict[str, str]:
 RULES: dict[str, Callable[[pd.Series], str]] = {
     "shipped": shipped, "sensor_lag_own_resolution": sensor_lag_own_resolution,
     "winner_gated": winner_gated, "bic_only": bic_only,
-    "valve_identification_test": valve_identification_test}
+    "valve_identification_test": valve_identification_test,
+    "without_range_fallback": without_range_fallback}
 #: the evidence keys an untuned rule reads beyond the shipped rule's (stored since added)
 NEEDS: dict[str, tuple[str, ...]] = {"valve_identification_test": ("p_identification",)}
 

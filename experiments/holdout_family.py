@@ -187,6 +187,22 @@ SEEN_FRESH = {
           "stiction lost: ISDB model-free 3 -> 2 of 10 (CHEM10 named saturation, its J "
           "refined from 2.1 to 0.1), limit_cycles' historian stiction with the model 14 -> "
           "11/24, regulatory_bias sticky 4 -> 2/24. Not shipped; nothing else changed.",
+    10000: "drawn blind after the stiction refinement was rejected (make concealed's "
+           "`holdout_fresh.md` then): 106/108 at level 1, 81/108 at level 2, `none` called "
+           "physics 0/24 and 1/24. Its level-2 travel limits and valve characteristics "
+           "named `none` (5/12 each), their limit or rangeability fitted close to the "
+           "truth, prompted the range hypotheses' full-data test "
+           "(`evidence.range_fallback`, level 1e-10 set on the three families): here "
+           "81 -> 87/108 at level 2, `none` unchanged.",
+    11000: "drawn blind to score the range hypotheses' full-data test, nothing changed "
+           "after: level 1 107/108, level 2 70 -> 73/108, `none` called physics 0/24 and "
+           "1/24 with and without it.",
+    12000: "drawn blind with 11000: level 1 99/108 (`none` called physics 5/24: slow "
+           "loops, τ 61-114 s), level 2 84 -> 87/108, `none` 1/24 with and without the "
+           "full-data test. Its level-1 false alarms prompted a look at the tests' "
+           "calibration on slow loops.",
+    13000: "drawn blind with 11000: level 1 104/108, level 2 92 -> 93/108, `none` called "
+           "physics 1/24 and 0/24 with and without the full-data test.",
 }
 SUB = 10  # process sub-steps per 1 s controller/historian period
 VALVE_MODELS = ("kano", "he", "choudhury")

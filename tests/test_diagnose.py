@@ -17,10 +17,18 @@ import stictionbench as sb
 from stictionbench.cli import main
 from stictionbench.diagnosis import VOCABULARY, NominalModel, diagnose
 from stictionbench.diagnosis.diagnose import compare, fit, hypothesise, locate, validate
-from stictionbench.diagnosis.evidence import failed_gates, passes, select, slow_line_named
+from stictionbench.diagnosis.evidence import (
+    FULL_DATA_ALPHA,
+    failed_gates,
+    passes,
+    range_fallback,
+    select,
+    slow_line_named,
+)
 from stictionbench.diagnosis.hypotheses import HYPOTHESES, Context
 from stictionbench.diagnosis.locate import dominant_periods, tone_periods
 from stictionbench.diagnosis.noise import fit_noise_model, input_independence, ljung_box, lr_test
+from stictionbench.diagnosis.report import summary_markdown
 from stictionbench.errors import InputError
 from stictionbench.io import write_recording
 from stictionbench.op_range import infer_op_range
@@ -148,6 +156,46 @@ def test_slow_line_rule():
     assert not slow_line_named("none", {**row, "p_value": 0.2}, 400.0, **kw)
     assert not slow_line_named("none", {**row, "at_bound": True}, 400.0, **kw)
     assert not slow_line_named("none", None, 400.0, **kw)
+
+
+def test_range_fallback_rule():
+    # a travel limit or curved characteristic is named by the full-data test only where
+    # nothing else was, only below its level, only when the validation blocks do not
+    # contradict it and never off the end of its range; other physics never this way
+    def row(name, p_full, improvement=0.02, at_bound=False):
+        return {"physics": name, "p_full": p_full, "improvement": improvement,
+                "at_bound": at_bound, "p_value": 0.3, "parameters": {}}
+    sat, vc = row("saturation", 1e-30), row("valve_characteristic", 1e-12)
+    assert range_fallback("none", [sat, vc]) == "saturation"        # the smaller p_full
+    assert range_fallback("none", [vc]) == "valve_characteristic"
+    assert range_fallback("dead_time", [sat, vc]) == "dead_time"     # a named verdict stands
+    assert range_fallback("none", [row("saturation", FULL_DATA_ALPHA * 10)]) == "none"
+    assert range_fallback("none", [row("saturation", 1e-30, improvement=-0.01)]) == "none"
+    assert range_fallback("none", [row("saturation", 1e-30, at_bound=True)]) == "none"
+    assert range_fallback("none", [row("dead_time", 1e-30)]) == "none"
+    assert range_fallback("none", [sat], alpha_full=0.0) == "none"  # off
+
+
+def test_range_fallback_in_the_diagnosis():
+    # a travel limit at OP's 90th percentile: named on the validation blocks at the
+    # defaults; with an effect-size gate nothing can pass (min_improvement 10) the
+    # full-data test names it, and the residual tests are the limit's
+    base = dict(duration=3000.0, seed=4, sample_time=1.0, sensor="noisy", valve="linear",
+                controller__sample_time=1.0, sensor__noise_std=0.05)
+    op = np.asarray(sb.simulate("linear", **base).OP, float)
+    rec = sb.simulate("linear", **base, valve__travel_high=float(np.percentile(op, 90)))
+    d = diagnose(rec, NOM)
+    assert d.missing_physics == "saturation"
+    assert "full_data_range" not in d.tests               # not needed: something was named
+    g = diagnose(rec, NOM, min_improvement=10.0)
+    t = g.tests["full_data_range"]
+    assert g.missing_physics == "saturation" and t["named"] == "saturation"
+    assert t["p_full"]["saturation"] < t["alpha"] == FULL_DATA_ALPHA
+    assert g.parameters and g.tests["vs_nominal"]["p_value"] == next(
+        r["p_value"] for r in g.ranking if r["physics"] == "saturation")
+    assert "full-data test" in summary_markdown(g)
+    # without a model the nominal was fitted on every block: the test is not applied
+    assert "full_data_range" not in diagnose(rec, None, min_improvement=10.0).tests
 
 
 def test_residual_line_band_only_with_a_given_model(monkeypatch):

@@ -49,6 +49,7 @@ from .evidence import (
     VALVE_HYPOTHESES,
     Verdict,
     slow_line_named,
+    with_range_fallback,
 )
 from .evidence import validate as _validate
 from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
@@ -632,6 +633,11 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     verdict = validate(cmp, fits, ham, alpha=alpha, min_improvement=min_improvement)
     look = second_look(cmp, verdict, alpha=alpha, min_improvement=min_improvement,
                        lp_factor=lp_factor)
+    if (look is None or not look.named) and cmp.ctx.model_given and cmp.pem:
+        # a travel limit or curved characteristic whose episodes the validation blocks
+        # miss: the full-data test, where nothing else was named (evidence.range_fallback)
+        c = cmp.ctx
+        verdict = with_range_fallback(verdict, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.val)
     if look is not None and look.named:
         # the answer, its fit and tests from the look's band; the ranking stays the main
         # band's (every hypothesis, comparable scores), the look's row in details

@@ -117,6 +117,20 @@ def _slow_line_lines(d: Diagnosis) -> list[str]:
             + (" (the table below is the main band's)." if look["named"] else ".")]
 
 
+def _range_lines(d: Diagnosis) -> list[str]:
+    """The full-data test of the range hypotheses (:func:`.evidence.range_fallback`),
+    when it named one."""
+    t = d.tests.get("full_data_range") or {}
+    if not t.get("named"):
+        return []
+    return [f"- Named by the full-data test: no hypothesis passed on the validation blocks "
+            f"alone; {t['named']}'s evidence sits where OP went (a limit, the far end of "
+            f"the curve), episodes the block split can leave in the training blocks, and "
+            f"its likelihood ratio on every block gives p = {t['p_full'][t['named']]:.2g} "
+            f"(level {t['alpha']:.0e}, allowing for the in-sample part); the validation "
+            f"blocks do not contradict it."]
+
+
 def _gate_lines(d: Diagnosis) -> list[str]:
     """Why a valve hypothesis that beats the nominal model was not credited (model-free:
     it must also beat the linear loop re-identified under the same criterion)."""
@@ -195,6 +209,7 @@ def summary_markdown(d: Diagnosis) -> str:
         *[f"- Not tested: {k} ({why})." for k, why in d.details.get("not_tested", {}).items()],
         *_gate_lines(d),
         *_slow_line_lines(d),
+        *_range_lines(d),
         *_residual_lines(d),
         "",
         "| physics | score (0 = best) | validation NRMSE | improvement | p-value | chosen |",
