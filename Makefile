@@ -71,7 +71,7 @@ concealed: venv
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --model-free
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --output-error
 	$(BIN)/python experiments/holdout_family.py --seeds 4 --none-seeds 8 --jobs 2
-	$(BIN)/python experiments/holdout_family.py --seeds 12 --none-seeds 24 --first-seed 14000 --name holdout_fresh --jobs 2
+	$(BIN)/python experiments/holdout_family.py --seeds 12 --none-seeds 24 --first-seed 15000 --name holdout_fresh --jobs 2
 	$(BIN)/python experiments/slow_line.py --loops 8 --jobs 2
 	$(BIN)/python experiments/slow_loops.py --seeds 24 --jobs 2
 	$(BIN)/python experiments/saturation_evidence.py --seeds 24 --jobs 2

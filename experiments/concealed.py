@@ -36,6 +36,7 @@ import argparse
 import inspect
 import itertools
 import json
+import math
 import sys
 import tempfile
 import time
@@ -67,6 +68,7 @@ from stictionbench.diagnosis.evidence import (  # noqa: E402
     after_second_look,
     failed_gates,
     range_fallback,
+    scaled_gate,
     select,
 )
 from stictionbench.io import atomic_directory, read_recording  # noqa: E402
@@ -135,6 +137,7 @@ def run_one(job: dict) -> dict:
         "predicted_default": d.missing_physics, "truth": json.dumps(job["truth"]),
         "evidence": stored_evidence(d), "slip_jump_p": slip, "cycle_reproduced": cycle,
         "dead_time_own_resolution": excited, "slow_line": slow_line_evidence(d),
+        "band_dof": d.details["band_dof"] if d.model.source == "given" else None,
         "seconds": seconds}
 
 
@@ -185,6 +188,15 @@ def with_slow_line(row: pd.Series, pick: str, alpha: float, min_improvement: flo
                              else None, alpha=alpha, min_improvement=min_improvement)
 
 
+def main_band_gate(row: pd.Series, min_improvement: float) -> float:
+    """The main band's NRMSE gate of one stored row: ``min_improvement`` scaled by the
+    row's in-band degrees of freedom where they were stored (a given model)."""
+    dof = row.get("band_dof")
+    if dof is None or not isinstance(dof, int | float) or not math.isfinite(dof):
+        return min_improvement
+    return scaled_gate(min_improvement, float(dof))
+
+
 def with_range_fallback(row: pd.Series, pick: str,
                         alpha_full: float = FULL_DATA_ALPHA) -> str:
     """``pick`` (after the second look), or the range hypothesis named by the full-data
@@ -210,9 +222,13 @@ def decide(row: pd.Series, alpha: float, min_improvement: float,
            alpha_full: float = FULL_DATA_ALPHA) -> str:
     """The shipped decision re-applied to one stored row at other thresholds: the main
     band's rule (:func:`~stictionbench.diagnosis.evidence.select`), then the second
-    look and the full-data test of the range hypotheses (:func:`after_main_band`)."""
+    look and the full-data test of the range hypotheses (:func:`after_main_band`). The
+    main band's NRMSE gate is scaled by the stored in-band degrees of freedom
+    (:func:`~stictionbench.diagnosis.evidence.scaled_gate`; rows stored before they
+    were, and model-free rows, keep ``min_improvement``)."""
     pick = select(json.loads(row["evidence"]), row["slip_jump_p"], alpha=alpha,
-                  min_improvement=min_improvement, own_resolution=own_resolution_of(row),
+                  min_improvement=main_band_gate(row, min_improvement),
+                  own_resolution=own_resolution_of(row),
                   cycle_reproduced=bool(row.get("cycle_reproduced", False)))
     return after_main_band(row, pick, alpha, min_improvement, alpha_full)
 

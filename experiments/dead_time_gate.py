@@ -98,7 +98,8 @@ def one(family: str, cls: str, level: int, seed: int) -> dict:
             "dead_time_p": dt["p_value"], "dead_time_improvement": dt["improvement"],
             "dead_time_at_bound": dt["at_bound"],
             "evidence": stored_evidence(d),
-            "slip_jump_p": slip, "slow_line": slow_line_evidence(d)}
+            "slip_jump_p": slip, "slow_line": slow_line_evidence(d),
+            "band_dof": d.details["band_dof"]}
 
 
 def _named(g: pd.DataFrame, label: str) -> str:

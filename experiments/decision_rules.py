@@ -90,6 +90,7 @@ from concealed import (  # noqa: E402
     after_main_band,
     best_setting,
     decide,
+    main_band_gate,
     own_resolution_of,
 )
 
@@ -168,7 +169,7 @@ def sensor_lag_own_resolution(row: pd.Series) -> str:
         if r["physics"] == "sensor_lag" and r["parameters"].get("time_constant", 0.0) <= TS:
             r["at_bound"] = True
     own = own | {"sensor_lag"} if own else own
-    return select(rows, slip, alpha=ALPHA, min_improvement=MIN_IMPROVEMENT,
+    return select(rows, slip, alpha=ALPHA, min_improvement=main_band_gate(row, MIN_IMPROVEMENT),
                   own_resolution=own, cycle_reproduced=cycle)
 
 
@@ -180,7 +181,7 @@ def winner_gated(row: pd.Series) -> str:
     if not tested:
         return "none"
     best = min(tested, key=lambda r: r["score"])
-    if not passes(best, ALPHA, MIN_IMPROVEMENT, own_resolution=own):
+    if not passes(best, ALPHA, main_band_gate(row, MIN_IMPROVEMENT), own_resolution=own):
         return "none"
     return shipped(row) if best["physics"] in VALVE_HYPOTHESES else best["physics"]
 
@@ -190,10 +191,10 @@ def bic_only(row: pd.Series) -> str:
     rows, slip, own, cycle = _context(row)
     free = [{**r, "p_value": 0.0} for r in rows]  # the LR test switched off
     keep = [r for r in free if r["physics"] == "none" or passes(
-        r, ALPHA, MIN_IMPROVEMENT, own_resolution=own)]
+        r, ALPHA, main_band_gate(row, MIN_IMPROVEMENT), own_resolution=own)]
     best = min(keep, key=lambda r: r["score"])["physics"]
     if best in VALVE_HYPOTHESES:
-        return select(free, slip, alpha=ALPHA, min_improvement=MIN_IMPROVEMENT,
+        return select(free, slip, alpha=ALPHA, min_improvement=main_band_gate(row, MIN_IMPROVEMENT),
                       own_resolution=own, cycle_reproduced=cycle)
     return best
 
@@ -254,7 +255,7 @@ def valve_identification_test(row: pd.Series) -> str:
     for r in rows:
         if r["physics"] in VALVE_HYPOTHESES and r.get("p_identification") is not None:
             r["p_value"] = r["p_identification"]
-    return select(rows, slip, alpha=ALPHA, min_improvement=MIN_IMPROVEMENT,
+    return select(rows, slip, alpha=ALPHA, min_improvement=main_band_gate(row, MIN_IMPROVEMENT),
                   own_resolution=own, cycle_reproduced=cycle)
 
 

@@ -197,3 +197,14 @@ def test_calibration_reports_the_identification_test_alone_where_stored():
     assert cal[f"valve identification test alone, alpha {dr.ALPHA:g}"].startswith("2/4")
     old = pd.DataFrame([_row()]).assign(**{"class": "none"})
     assert not any(k.startswith("valve identification") for k in dr.calibration(old))
+
+
+def test_stored_band_dof_scales_the_main_bands_gate():
+    # a lag improving the validation NRMSE by 15 %: named with the gate as set, not
+    # where the stored band holds 25 independent samples (gate 0.2); rows stored before
+    # the degrees of freedom were (NaN) keep the gate as set
+    row = _row(lag_improvement=0.15, delay_p=0.2)
+    assert dr.shipped(row) == "sensor_lag"
+    assert dr.shipped(pd.concat([row, pd.Series({"band_dof": 25.0})])) == "none"
+    assert dr.shipped(pd.concat([row, pd.Series({"band_dof": 400.0})])) == "sensor_lag"
+    assert dr.shipped(pd.concat([row, pd.Series({"band_dof": float("nan")})])) == "sensor_lag"

@@ -19,9 +19,12 @@ from stictionbench.diagnosis import VOCABULARY, NominalModel, diagnose
 from stictionbench.diagnosis.diagnose import compare, fit, hypothesise, locate, validate
 from stictionbench.diagnosis.evidence import (
     FULL_DATA_ALPHA,
+    MIN_IMPROVEMENT,
+    band_dof,
     failed_gates,
     passes,
     range_fallback,
+    scaled_gate,
     select,
     slow_line_named,
 )
@@ -196,6 +199,28 @@ def test_range_fallback_in_the_diagnosis():
     assert "full-data test" in summary_markdown(g)
     # without a model the nominal was fitted on every block: the test is not applied
     assert "full_data_range" not in diagnose(rec, None, min_improvement=10.0).tests
+
+
+def test_nrmse_gate_grows_where_the_band_holds_few_samples():
+    assert band_dof(1000, 1.0, 0.001, 0.05) == pytest.approx(98.0)
+    assert band_dof(1000, 1.0, 0.001, None) == math.inf
+    assert scaled_gate(0.1, 400.0) == scaled_gate(0.1, 100.0) == 0.1
+    assert scaled_gate(0.1, 25.0) == pytest.approx(0.2)
+    assert scaled_gate(0.1, 0.0) == 0.1                  # a degenerate band: unscaled
+    # the paper's loop (τ = 10 s sampled every second for 3000 s): the gate as set
+    d = diagnose(_rec(seed=8, sensor__time_constant=0.0), NOM)
+    assert d.details["band_dof"] >= 100 and d.details["nrmse_gate"] == MIN_IMPROVEMENT
+    # the same loop ten times slower: a few dozen in-band samples, a larger gate
+    slow = replace(NOM, time_constant=100.0, ti=100.0)
+    rec = _rec(seed=8, sensor__time_constant=0.0, process__time_constant=100.0,
+               controller__ti=100.0)
+    d = diagnose(rec, slow)
+    assert d.details["band_dof"] < 100
+    assert d.details["nrmse_gate"] > MIN_IMPROVEMENT
+    assert d.details["nrmse_gate"] == pytest.approx(
+        scaled_gate(MIN_IMPROVEMENT, d.details["band_dof"]))
+    # without a model the gate is not scaled
+    assert diagnose(rec, None).details["nrmse_gate"] == MIN_IMPROVEMENT
 
 
 def test_residual_line_band_only_with_a_given_model(monkeypatch):

@@ -48,6 +48,8 @@ from .evidence import (
     OWN_RESOLUTION,
     VALVE_HYPOTHESES,
     Verdict,
+    band_dof,
+    scaled_gate,
     slow_line_named,
     with_range_fallback,
 )
@@ -600,7 +602,9 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         default :data:`.evidence.ALPHA` (see its provenance).
     min_improvement : float
         Smallest relative validation-NRMSE improvement that counts (default
-        :data:`.evidence.MIN_IMPROVEMENT`).
+        :data:`.evidence.MIN_IMPROVEMENT`); against a given model scaled up where the
+        comparison band holds few independent validation samples
+        (:func:`.evidence.scaled_gate`; ``details.band_dof`` and ``details.nrmse_gate``).
     hp_factor, lp_factor : float
         High-pass cut-off as a fraction of ``1/(2π(τ+θ))`` (slow-load rejection);
         low-pass cut-off in multiples of ``1/(2πτ)`` (noise rejection).
@@ -630,7 +634,11 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     loc = locate(cmp)
     names = hypothesise(cmp, loc, hypotheses)
     fits, ham = fit(cmp, names, alpha=alpha)
-    verdict = validate(cmp, fits, ham, alpha=alpha, min_improvement=min_improvement)
+    dof = band_dof(cmp.prob.val.size, cmp.ctx.Ts, cmp.prob.f_hp, cmp.prob.f_lp)
+    # against a given model the NRMSE gate grows where the band holds few independent
+    # validation samples (evidence.scaled_gate: slow loops sampled fast)
+    gate = scaled_gate(min_improvement, dof) if cmp.ctx.model_given else min_improvement
+    verdict = validate(cmp, fits, ham, alpha=alpha, min_improvement=gate)
     look = second_look(cmp, verdict, alpha=alpha, min_improvement=min_improvement,
                        lp_factor=lp_factor)
     if (look is None or not look.named) and cmp.ctx.model_given and cmp.pem:
@@ -647,6 +655,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d = _assemble(cmp, loc, fits, verdict, ham)
     if look is not None:
         d.details["slow_line"] = look.to_dict()
+    d.details["band_dof"] = dof
+    d.details["nrmse_gate"] = gate
     d.details["seconds"] = time.perf_counter() - t0
     return d
 

@@ -100,6 +100,13 @@ RANGE_HYPOTHESES = ("saturation", "valve_characteristic")
 #: ``experiments/decision_rules.py`` (``range_fallback``: most named with ``none`` called
 #: physics ≤ 5 % over 1e-4 … 1e-12, ties to the smaller level), scored on the others
 FULL_DATA_ALPHA = 1e-10
+#: independent samples the validation blocks hold in the comparison band
+#: (:func:`band_dof`) at and above which the NRMSE gate is :data:`MIN_IMPROVEMENT`
+#: itself; below, the gate grows as ``1/√dof`` (:func:`scaled_gate`). Read off
+#: ``reports/concealed/slow_loops.md`` (healthy loops of the holdout family, their speed
+#: varied: called physics 2 of 336 at 100 or more, 48 of 384 below), scored on the
+#: holdout family's blind block 14000 and on the other benchmarks
+BAND_DOF = 100.0
 
 
 @dataclass
@@ -380,6 +387,44 @@ def after_second_look(pick: str, look: dict[str, Any] | None, *, alpha: float,
                                 min_improvement=min_improvement):
         return "oscillatory_disturbance"
     return pick
+
+
+def band_dof(n_val: int, Ts: float, f_hp: float | None, f_lp: float | None) -> float:
+    """Independent samples that ``n_val`` validation samples hold in the comparison band
+    ``[f_hp, f_lp]`` Hz: ``2 · n_val · Ts · (f_lp − f_hp)`` (a band of width ``B`` carries
+    ``2B`` independent values per second); ``inf`` without a low-pass.
+
+    Examples
+    --------
+    >>> round(band_dof(1000, 1.0, 0.001, 0.05), 1)
+    98.0
+    """
+    if f_lp is None:
+        return math.inf
+    return 2.0 * n_val * Ts * max(f_lp - (f_hp or 0.0), 0.0)
+
+
+def scaled_gate(min_improvement: float, dof: float, reference: float = BAND_DOF) -> float:
+    """The NRMSE gate for a comparison band holding ``dof`` independent validation
+    samples: ``min_improvement`` at ``reference`` or more, ``min_improvement ·
+    √(reference/dof)`` below.
+
+    Why: the gate is an effect size measured on the band, and the improvement a
+    hypothesis reaches there by chance spreads as ``1/√dof``; a slow loop sampled fast
+    leaves few independent samples in a record (a time constant of 120 s over 3000 s at
+    1 s: about 13), and healthy loops were called faulty there 12 % of the time against
+    0.6 % with 100 or more (``reports/concealed/slow_loops.md``). Scaling keeps the
+    gate's chance level where it holds on faster loops, at the price of missing small
+    effects on slow ones.
+
+    Examples
+    --------
+    >>> scaled_gate(0.1, 400.0), round(scaled_gate(0.1, 25.0), 3)
+    (0.1, 0.2)
+    """
+    if not dof > 0:
+        return min_improvement
+    return min_improvement * math.sqrt(max(1.0, reference / dof))
 
 
 def range_candidates(rows: list[dict[str, Any]], *,
