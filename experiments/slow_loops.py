@@ -26,7 +26,10 @@ and diagnosed against its true model as a user would. Three conditions:
 
 If the load explains the false alarms, they fall without it; if the record's in-band
 samples do, they fall with the longer record. Reported: ``none`` called physics by time
-constant and condition (Wilson 95 %), what was named, and the in-band degrees of freedom
+constant and condition (Wilson 95 %) with the NRMSE gate as set (each diagnosis
+re-decided from its evidence) and with the shipped gate, which grows where the band
+holds few samples (:func:`stictionbench.diagnosis.evidence.scaled_gate`, its reference
+read off this experiment), what was named, and the in-band degrees of freedom
 of the validation blocks (``2 · n_val · Ts · (f_lp − f_hp)``, the independent samples
 a band of that width holds).
 
@@ -37,6 +40,7 @@ Run: ``.venv/bin/python experiments/slow_loops.py [--seeds 24] [--jobs 2]``; wri
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import tempfile
 from pathlib import Path
@@ -50,11 +54,12 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import fresh_recordings as fresh  # noqa: E402
 import holdout_family as hf  # noqa: E402
-from concealed import write_job  # noqa: E402
+from concealed import decide, run_one, write_job  # noqa: E402
 from concealed_families import CLASSES, DURATION  # noqa: E402
 
-from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
-from stictionbench.io import read_recording, write_text  # noqa: E402
+from stictionbench.diagnosis.evidence import ALPHA, MIN_IMPROVEMENT  # noqa: E402
+from stictionbench.diagnosis.evidence import BAND_DOF as SHIPPED_BAND_DOF  # noqa: E402
+from stictionbench.io import write_text  # noqa: E402
 from stictionbench.rates import rate_text, wilson  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
 from stictionbench.reports.tables import csv_text, to_markdown  # noqa: E402
@@ -64,7 +69,7 @@ TAUS = (3.0, 10.0, 30.0, 60.0, 120.0)
 FIRST_SEED = 20000
 SEEDS = 24
 #: in-band degrees of freedom the report splits the recordings at
-BAND_DOF = 100
+BAND_DOF = int(SHIPPED_BAND_DOF)
 #: condition -> (record length in s, the load's spread scaled by)
 CONDITIONS = {"as drawn": (DURATION, 1.0), "no load": (DURATION, 0.0),
               "three times longer": (3 * DURATION, 1.0)}
@@ -108,17 +113,18 @@ def jobs(seeds: int, out: Path) -> list[dict]:
 
 
 def run(job: dict) -> dict:
-    """One healthy loop diagnosed against its true model."""
-    rec = read_recording(job["csv"], warn=False)
-    d = diagnose(rec, load_model(job["model"]))
-    named = next((r for r in d.ranking if r["physics"] == d.missing_physics), {})
-    n_val = sum(int(round((b - a) / rec.Ts)) + 1 for a, b in d.details["validation_windows"])
-    f_hp, f_lp = d.details["highpass_hz"], d.details["lowpass_hz"]
+    """One healthy loop diagnosed against its true model (``pick``, the shipped verdict)
+    and re-decided from its stored evidence with the NRMSE gate as set, unscaled by the
+    band's degrees of freedom (``pick_unscaled``: the rule before
+    :func:`stictionbench.diagnosis.evidence.scaled_gate`)."""
+    row = pd.Series(run_one(job))
+    named = next((r for r in json.loads(row["evidence"])
+                  if r["physics"] == row["predicted_default"]), {})
     return {k: job[k] for k in ("condition", "tau", "theta", "level", "seed")} | {
-        "pick": d.missing_physics, "p_value": named.get("p_value"),
-        "improvement": named.get("improvement"),
-        "band_dof": 2.0 * n_val * rec.Ts * max(f_lp - f_hp, 0.0),
-        "seconds": d.details["seconds"]}
+        "pick": row["predicted_default"],
+        "pick_unscaled": decide(row.drop("band_dof"), ALPHA, MIN_IMPROVEMENT),
+        "p_value": named.get("p_value"), "improvement": named.get("improvement"),
+        "band_dof": row["band_dof"], "seconds": row["seconds"]}
 
 
 def rates(df: pd.DataFrame) -> pd.DataFrame:
@@ -131,6 +137,8 @@ def rates(df: pd.DataFrame) -> pd.DataFrame:
             gl = g[g.level == level]
             row[f"level {level}"] = rate_text(int((gl.pick != "none").sum()), len(gl))
         row["both levels"] = rate_text(int((g.pick != "none").sum()), len(g))
+        row["both levels, gate unscaled"] = rate_text(int((g.pick_unscaled != "none").sum()),
+                                                      len(g))
         named = g.pick[g.pick != "none"].value_counts()
         row["named"] = ", ".join(f"{k} {v}" for k, v in named.items()) or "–"
         rows.append(row)
@@ -141,13 +149,18 @@ def figure(df: pd.DataFrame, path: Path) -> Path:
     fig, ax = new_figure(1, 1, figsize=(6.4, 3.6))
     for (cond, g), style in zip(df.groupby("condition", sort=False), ("o-", "s--", "^:"),
                                 strict=True):
-        by = (g.pick != "none").groupby(g.tau)
+        by = (g.pick_unscaled != "none").groupby(g.tau)
         k, n = by.sum(), by.size()
         rate = (k / n).to_numpy()
         lo, hi = np.array([wilson(int(a), int(b)) for a, b in zip(k, n, strict=True)]).T
         x = k.index.to_numpy() * {"as drawn": 1.0, "no load": 0.93,
                                   "three times longer": 1.07}[cond]
-        ax.errorbar(x, rate, yerr=[rate - lo, hi - rate], fmt=style, capsize=3, label=cond)
+        ax.errorbar(x, rate, yerr=[rate - lo, hi - rate], fmt=style, capsize=3,
+                    label=f"{cond} (gate as set)")
+    g = df[df.condition == "as drawn"]
+    shipped = (g.pick != "none").groupby(g.tau).mean()
+    ax.plot(shipped.index, shipped.to_numpy(), "kx-", lw=0.8,
+            label="as drawn, the shipped gate (scaled)")
     ax.axhline(0.05, color="grey", lw=0.8, ls=":")
     ax.set_xscale("log")
     ax.set_xticks(TAUS, [f"{t:g}" for t in TAUS])
@@ -169,11 +182,12 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         df = fresh.run(run, [(j,) for j in jobs(a.seeds, Path(tmp))], a.jobs)
     df = df.sort_values(["condition", "tau", "level", "seed"], kind="stable")
+    df = df.round({"p_value": 6, "improvement": 6, "band_dof": 3})
     write_text(OUT / "slow_loops.csv", csv_text(df.drop(columns="seconds")))
     figure(df, OUT / "slow_loops.png")
     tab = rates(df)
-    def called(g: pd.DataFrame) -> str:
-        return rate_text(int((g.pick != "none").sum()), len(g))
+    def called(g: pd.DataFrame, col: str = "pick_unscaled") -> str:
+        return rate_text(int((g[col] != "none").sum()), len(g))
 
     slow = df[df.tau >= 30]
     by_cond = "; ".join(f"{cond}: {called(g)}" for cond, g in slow.groupby("condition",
@@ -194,7 +208,12 @@ def main(argv=None) -> int:
         f"- all conditions, by the validation blocks' in-band degrees of freedom "
         f"(`band_dof`: `2 · n_val · Ts · (f_lp − f_hp)`, the independent samples a band "
         f"of that width holds; the 10 % NRMSE gate is an effect size measured on it): "
-        f"under {BAND_DOF} {called(df[few])}, {BAND_DOF} or more {called(df[~few])}.", "",
+        f"under {BAND_DOF} {called(df[few])}, {BAND_DOF} or more {called(df[~few])};",
+        f"- these rates are the gate's as set (`gate unscaled`); the shipped rule scales "
+        f"it by the band's degrees of freedom below {BAND_DOF:g} "
+        f"(`evidence.scaled_gate`, whose reference was read off this report): called "
+        f"physics under {BAND_DOF} {called(df[few], 'pick')}, {BAND_DOF} or more "
+        f"{called(df[~few], 'pick')}.", "",
         "Reading: if the slow load explained the false alarms they would fall without "
         "it; if the few in-band samples of a slow loop's record did, they would fall with "
         "the longer record. The rows above say which; where neither condition brings the "
