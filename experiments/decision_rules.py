@@ -49,6 +49,11 @@ included:
   ties to the smaller level); the shipped level is
   :data:`~stictionbench.diagnosis.evidence.FULL_DATA_ALPHA`.
   ``without_range_fallback`` is the shipped rule before that test was added;
+- ``without_band_gate`` — the shipped rule with the NRMSE gate as set where the
+  comparison band holds few independent validation samples (the shipped rule scales it
+  up there: :func:`stictionbench.diagnosis.evidence.scaled_gate`, its reference read off
+  ``slow_loops.md``); benchmarks stored before the degrees of freedom were read the same
+  under both;
 - ``full_data_lr`` — the one-step likelihood ratio on every block (training and
   validation, ``p_full`` in the ranking: the classic prediction-error test, about 2.5
   times the samples of the validation test) in place of the validation one, Bonferroni
@@ -160,6 +165,12 @@ def range_fallback_at(row: pd.Series, alpha_full: float) -> str:
 def without_range_fallback(row: pd.Series) -> str:
     """The shipped rule before the range hypotheses' full-data test was added."""
     return range_fallback_at(row, 0.0)
+
+
+def without_band_gate(row: pd.Series) -> str:
+    """The shipped rule with the main band's NRMSE gate as set, not scaled by the
+    band's degrees of freedom (:func:`stictionbench.diagnosis.evidence.scaled_gate`)."""
+    return decide(row.drop("band_dof", errors="ignore"), ALPHA, MIN_IMPROVEMENT)
 
 
 @_looked
@@ -333,7 +344,8 @@ RULES: dict[str, Callable[[pd.Series], str]] = {
     "shipped": shipped, "sensor_lag_own_resolution": sensor_lag_own_resolution,
     "winner_gated": winner_gated, "bic_only": bic_only,
     "valve_identification_test": valve_identification_test,
-    "without_range_fallback": without_range_fallback}
+    "without_range_fallback": without_range_fallback,
+    "without_band_gate": without_band_gate}
 #: the evidence keys an untuned rule reads beyond the shipped rule's (stored since added)
 NEEDS: dict[str, tuple[str, ...]] = {"valve_identification_test": ("p_identification",)}
 

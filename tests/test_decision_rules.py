@@ -208,3 +208,9 @@ def test_stored_band_dof_scales_the_main_bands_gate():
     assert dr.shipped(pd.concat([row, pd.Series({"band_dof": 25.0})])) == "none"
     assert dr.shipped(pd.concat([row, pd.Series({"band_dof": 400.0})])) == "sensor_lag"
     assert dr.shipped(pd.concat([row, pd.Series({"band_dof": float("nan")})])) == "sensor_lag"
+
+
+def test_without_band_gate_reads_the_gate_as_set():
+    row = pd.concat([_row(lag_improvement=0.15, delay_p=0.2), pd.Series({"band_dof": 25.0})])
+    assert dr.shipped(row) == "none"
+    assert dr.without_band_gate(row) == "sensor_lag"
