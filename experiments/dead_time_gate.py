@@ -15,9 +15,9 @@ was `none`"; the holdout family named 1 of 4 level-2 dead times). The shipped ru
 NRMSE at all; the *earlier* rule applied the 10 % gate to it as to every hypothesis.
 
 Every recording is diagnosed once as a user would (recording + model, package defaults);
-the shipped verdict is ``diagnose``'s own, the earlier one re-applies
-:func:`~stictionbench.diagnosis.evidence.select` to the same evidence with no hypothesis
-exempt (an ablation). Recordings: all eight classes of the three tuning families
+the shipped verdict is ``diagnose``'s own, the earlier one re-decides the same stored
+evidence as shipped with no hypothesis exempt (``concealed.decide``: an ablation of that
+rule alone). Recordings: all eight classes of the three tuning families
 (``experiments/concealed_families.py``) and of the holdout family
 (``experiments/holdout_family.py``), at seeds the benchmark never draws (effects from seed
 16, ``none`` from seed 24), levels 1 and 2. Nothing here sets a threshold. Writes
@@ -44,14 +44,12 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 import fresh_recordings as fresh  # noqa: E402
-from concealed import slow_line_evidence, stored_evidence  # noqa: E402
+from concealed import decide, slow_line_evidence, stored_evidence  # noqa: E402
 
 from stictionbench.diagnosis import diagnose  # noqa: E402
 from stictionbench.diagnosis.evidence import (  # noqa: E402
     ALPHA,
     MIN_IMPROVEMENT,
-    after_second_look,
-    select,
 )
 from stictionbench.io import atomic_path, write_text  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
@@ -83,12 +81,16 @@ def one(family: str, cls: str, level: int, seed: int) -> dict:
     c, m, rec = fresh.recording(family, cls, level, seed)
     d = diagnose(rec, m)
     slip = d.tests.get("slip_jump_zero", {}).get("p_value")
-    earlier = select(d.ranking, slip, alpha=ALPHA, min_improvement=MIN_IMPROVEMENT,
-                     own_resolution=frozenset(), cycle_reproduced=bool(
-                         d.tests.get("closed_loop_cycle", {}).get("reproduced", False)))
-    # the second look, the same under both rules
-    earlier = after_second_look(earlier, d.details.get("slow_line"), alpha=ALPHA,
-                                min_improvement=MIN_IMPROVEMENT)
+    # the rule before the dead time's own resolution, re-decided from the stored
+    # evidence with everything else as shipped (concealed.decide: the scaled NRMSE gate,
+    # the second look, the range hypotheses' full-data test)
+    earlier = decide(pd.Series({
+        "evidence": stored_evidence(d), "slip_jump_p": slip,
+        "dead_time_own_resolution": False, "slow_line": slow_line_evidence(d),
+        "band_dof": d.details["band_dof"],
+        "cycle_reproduced": bool(d.tests.get("closed_loop_cycle", {}).get("reproduced",
+                                                                          False))}),
+        ALPHA, MIN_IMPROVEMENT)
     dt = next(r for r in d.ranking if r["physics"] == "dead_time")
     return {"family": family, "class": cls, "level": level, "seed": seed,
             "effect": c.effect, "noise_frac": c.noise_frac, "theta": c.theta,

@@ -58,6 +58,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import concealed_families as cf  # noqa: E402
 import fresh_recordings as fresh  # noqa: E402
+from concealed import decide, slow_line_evidence, stored_evidence  # noqa: E402
 
 from stictionbench.diagnosis import NominalModel, diagnose  # noqa: E402
 from stictionbench.diagnosis.cycle import (  # noqa: E402
@@ -69,9 +70,6 @@ from stictionbench.diagnosis.diagnose import Diagnosis, cycle_evidence  # noqa: 
 from stictionbench.diagnosis.evidence import (  # noqa: E402
     ALPHA,
     MIN_IMPROVEMENT,
-    OWN_RESOLUTION,
-    after_second_look,
-    select,
 )
 from stictionbench.io import atomic_path, write_text  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
@@ -140,19 +138,22 @@ def _evidence(d: Diagnosis) -> dict:
     band = cycle_evidence(d.rec, d.model, ham, d.details["highpass_hz"], amplitude="band") \
         if ham else None
     lr = cyc.get("log_ratios", {})
-    # re-decided as diagnose decided, the dead time's rule included
-    rule = {"alpha": ALPHA, "min_improvement": MIN_IMPROVEMENT,
-            "own_resolution": OWN_RESOLUTION if d.details["dead_time_own_resolution"]
-            else frozenset()}
-    look = d.details.get("slow_line")  # the second look, kept in every variant
+    # re-decided from the stored evidence as diagnose decided (the dead time's rule, the
+    # scaled NRMSE gate, the second look and the range hypotheses' full-data test kept
+    # in every variant: concealed.decide), the cycle rule varied
+    row = pd.Series({"evidence": stored_evidence(d), "slip_jump_p": slip,
+                     "dead_time_own_resolution": d.details["dead_time_own_resolution"],
+                     "slow_line": slow_line_evidence(d),
+                     "band_dof": d.details["band_dof"] if d.model.source == "given"
+                     else None})
 
-    def decided(**kw) -> str:
-        return after_second_look(select(d.ranking, slip, **rule, **kw), look,
-                                 alpha=ALPHA, min_improvement=MIN_IMPROVEMENT)
+    def decided(cycle: bool = False) -> str:
+        return decide(pd.concat([row, pd.Series({"cycle_reproduced": cycle})]), ALPHA,
+                      MIN_IMPROVEMENT)
 
     return {"shipped": d.missing_physics,
             "ablation": decided(),
-            "band": decided(cycle_reproduced=bool(band is not None and band.reproduced)),
+            "band": decided(bool(band is not None and band.reproduced)),
             "cycle_applicable": bool(cyc.get("applicable", False)),
             "cycle_reproduced": bool(cyc.get("reproduced", False)),
             "band_reproduced": bool(band is not None and band.reproduced),
