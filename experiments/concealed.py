@@ -129,16 +129,25 @@ def run_one(job: dict) -> dict:
     d = diagnose(rec, pem=pem) if job.get("model_free") else \
         diagnose(rec, load_model(job["model"]), pem=pem)
     seconds = time.perf_counter() - t0
-    slip = d.tests.get("slip_jump_zero", {}).get("p_value")
-    cycle = bool(d.tests.get("closed_loop_cycle", {}).get("reproduced", False))
-    excited = bool(d.details["dead_time_own_resolution"])
     return {k: job[k] for k in ("name", "family", "class", "level", "seed", "effect",
                                 "noise_frac")} | {
         "predicted_default": d.missing_physics, "truth": json.dumps(job["truth"]),
-        "evidence": stored_evidence(d), "slip_jump_p": slip, "cycle_reproduced": cycle,
-        "dead_time_own_resolution": excited, "slow_line": slow_line_evidence(d),
-        "band_dof": d.details["band_dof"] if d.model.source == "given" else None,
-        "seconds": seconds}
+        **decision_row(d), "seconds": seconds}
+
+
+def decision_row(d) -> dict:
+    """What :func:`decide` re-decides a finished diagnosis from: its ranking
+    (:func:`stored_evidence`), the slip-jump p-value, whether the closed-loop cycle was
+    reproduced and the dead time judged by its own resolution, the second look's line
+    (:func:`slow_line_evidence`) and, against a given model, the band's degrees of
+    freedom that scaled the NRMSE gate."""
+    return {"evidence": stored_evidence(d),
+            "slip_jump_p": d.tests.get("slip_jump_zero", {}).get("p_value"),
+            "cycle_reproduced": bool(d.tests.get("closed_loop_cycle", {}).get(
+                "reproduced", False)),
+            "dead_time_own_resolution": bool(d.details["dead_time_own_resolution"]),
+            "slow_line": slow_line_evidence(d),
+            "band_dof": d.details["band_dof"] if d.model.source == "given" else None}
 
 
 def stored_evidence(d) -> str:

@@ -44,7 +44,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 import fresh_recordings as fresh  # noqa: E402
-from concealed import decide, slow_line_evidence, stored_evidence  # noqa: E402
+from concealed import decide, decision_row  # noqa: E402
 
 from stictionbench.diagnosis import diagnose  # noqa: E402
 from stictionbench.diagnosis.evidence import (  # noqa: E402
@@ -80,17 +80,12 @@ def cases(seeds: int, none_seeds: int) -> list[tuple[str, str, int, int]]:
 def one(family: str, cls: str, level: int, seed: int) -> dict:
     c, m, rec = fresh.recording(family, cls, level, seed)
     d = diagnose(rec, m)
-    slip = d.tests.get("slip_jump_zero", {}).get("p_value")
+    row = decision_row(d)
     # the rule before the dead time's own resolution, re-decided from the stored
     # evidence with everything else as shipped (concealed.decide: the scaled NRMSE gate,
     # the second look, the range hypotheses' full-data test)
-    earlier = decide(pd.Series({
-        "evidence": stored_evidence(d), "slip_jump_p": slip,
-        "dead_time_own_resolution": False, "slow_line": slow_line_evidence(d),
-        "band_dof": d.details["band_dof"],
-        "cycle_reproduced": bool(d.tests.get("closed_loop_cycle", {}).get("reproduced",
-                                                                          False))}),
-        ALPHA, MIN_IMPROVEMENT)
+    earlier = decide(pd.Series({**row, "dead_time_own_resolution": False}), ALPHA,
+                     MIN_IMPROVEMENT)
     dt = next(r for r in d.ranking if r["physics"] == "dead_time")
     return {"family": family, "class": cls, "level": level, "seed": seed,
             "effect": c.effect, "noise_frac": c.noise_frac, "theta": c.theta,
@@ -99,9 +94,7 @@ def one(family: str, cls: str, level: int, seed: int) -> dict:
             "dead_time_fit": dt["parameters"].get("dead_time", np.nan),
             "dead_time_p": dt["p_value"], "dead_time_improvement": dt["improvement"],
             "dead_time_at_bound": dt["at_bound"],
-            "evidence": stored_evidence(d),
-            "slip_jump_p": slip, "slow_line": slow_line_evidence(d),
-            "band_dof": d.details["band_dof"]}
+            **{k: row[k] for k in ("evidence", "slip_jump_p", "slow_line", "band_dof")}}
 
 
 def _named(g: pd.DataFrame, label: str) -> str:

@@ -58,7 +58,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import concealed_families as cf  # noqa: E402
 import fresh_recordings as fresh  # noqa: E402
-from concealed import decide, slow_line_evidence, stored_evidence  # noqa: E402
+from concealed import decide, decision_row  # noqa: E402
 
 from stictionbench.diagnosis import NominalModel, diagnose  # noqa: E402
 from stictionbench.diagnosis.cycle import (  # noqa: E402
@@ -133,7 +133,6 @@ def _evidence(d: Diagnosis) -> dict:
     check and verdict with phase-drift-robust amplitudes (``amplitude="band"``: the
     variation behind the explanation of the check's low sensitivity)."""
     cyc = d.tests.get("closed_loop_cycle", {})
-    slip = d.tests.get("slip_jump_zero", {}).get("p_value")
     ham = d.details.get("hammerstein")
     band = cycle_evidence(d.rec, d.model, ham, d.details["highpass_hz"], amplitude="band") \
         if ham else None
@@ -141,15 +140,10 @@ def _evidence(d: Diagnosis) -> dict:
     # re-decided from the stored evidence as diagnose decided (the dead time's rule, the
     # scaled NRMSE gate, the second look and the range hypotheses' full-data test kept
     # in every variant: concealed.decide), the cycle rule varied
-    row = pd.Series({"evidence": stored_evidence(d), "slip_jump_p": slip,
-                     "dead_time_own_resolution": d.details["dead_time_own_resolution"],
-                     "slow_line": slow_line_evidence(d),
-                     "band_dof": d.details["band_dof"] if d.model.source == "given"
-                     else None})
+    row = decision_row(d)
 
     def decided(cycle: bool = False) -> str:
-        return decide(pd.concat([row, pd.Series({"cycle_reproduced": cycle})]), ALPHA,
-                      MIN_IMPROVEMENT)
+        return decide(pd.Series({**row, "cycle_reproduced": cycle}), ALPHA, MIN_IMPROVEMENT)
 
     return {"shipped": d.missing_physics,
             "ablation": decided(),

@@ -75,20 +75,23 @@ CONDITIONS = {"as drawn": (DURATION, 1.0), "no load": (DURATION, 0.0),
               "three times longer": (3 * DURATION, 1.0)}
 
 
-def scaled_case(level: int, seed: int, tau: float, duration: float, load_scale: float):
+def scaled_recording(level: int, seed: int, tau: float, duration: float,
+                     load_scale: float):
     """The holdout family's ``none`` case at ``seed``, its loop moved to time constant
-    ``tau`` (the drawn ``θ/τ`` and ``λ/τ`` kept), the record ``duration`` s long and its
-    load scaled by ``load_scale``."""
-    hf.DURATION = duration  # the set-point schedule and the simulation read it
+    ``tau`` (the drawn ``θ/τ`` and ``λ/τ`` kept), the record ``duration`` s long (the
+    set-point schedule and the simulation both read the family's ``DURATION``) and its
+    load scaled by ``load_scale``; returns ``(case, signals)``."""
+    hf.DURATION = duration
     try:
         c = hf.draw("none", level, seed)
+        lam = c.lam_cl - c.theta
+        c.theta, lam, c.tau = max(1.0, c.theta * tau / c.tau), lam * tau / c.tau, tau
+        c.kc, c.ti, c.lam_cl = tau / (c.K * (lam + c.theta)), tau, lam + c.theta
+        c.load *= load_scale
+        return c, hf.simulate(c, np.random.default_rng(
+            [97, CLASSES.index("none"), level, seed, 1]))
     finally:
         hf.DURATION = DURATION
-    lam = c.lam_cl - c.theta
-    c.theta, lam, c.tau = max(1.0, c.theta * tau / c.tau), lam * tau / c.tau, tau
-    c.kc, c.ti, c.lam_cl = tau / (c.K * (lam + c.theta)), tau, lam + c.theta
-    c.load *= load_scale
-    return c
 
 
 def jobs(seeds: int, out: Path) -> list[dict]:
@@ -100,13 +103,7 @@ def jobs(seeds: int, out: Path) -> list[dict]:
             sub.mkdir(parents=True, exist_ok=True)
             for level in (1, 2):
                 for seed in range(FIRST_SEED, FIRST_SEED + seeds):
-                    c = scaled_case(level, seed, tau, duration, load_scale)
-                    hf.DURATION = duration
-                    try:
-                        sig = hf.simulate(c, np.random.default_rng(
-                            [97, CLASSES.index("none"), level, seed, 1]))
-                    finally:
-                        hf.DURATION = DURATION
+                    c, sig = scaled_recording(level, seed, tau, duration, load_scale)
                     todo.append(write_job(c, sig, sub) | {
                         "condition": cond, "tau": tau, "theta": c.theta})
     return todo

@@ -474,14 +474,12 @@ def with_range_fallback(verdict: Verdict, op: np.ndarray, Ts: float, f_hp: float
     report = {"alpha": alpha_full, "named": None if pick == verdict.pick else pick,
               "p_full": {r["physics"]: r.get("p_full") for r in verdict.ranking
                          if r["physics"] in RANGE_HYPOTHESES}}
-    tests = {k: v for k, v in verdict.tests.items()
-             if k not in ("vs_nominal", "whiteness", "independence_from_op")}
-    tests["full_data_range"] = report
-    if pick != verdict.pick:
-        tests = _residual_tests(tests, verdict.ranking, pick, verdict.innovations, op, Ts,
+    tests = {**verdict.tests, "full_data_range": report}
+    if pick != verdict.pick:  # the residual tests of the hypothesis named, not the nominal's
+        kept = {k: v for k, v in tests.items()
+                if k not in ("vs_nominal", "whiteness", "independence_from_op")}
+        tests = _residual_tests(kept, verdict.ranking, pick, verdict.innovations, op, Ts,
                                 f_hp, verdict.noise, val)
-    else:
-        tests = {**verdict.tests, "full_data_range": report}
     return replace(verdict, pick=pick, tests=tests)
 
 
