@@ -125,7 +125,8 @@ def _range_lines(d: Diagnosis) -> list[str]:
         return []
     return [f"- Named by the full-data test: no hypothesis passed on the validation blocks "
             f"alone; {t['named']}'s evidence sits where OP went (a limit, the far end of "
-            f"the curve), episodes the block split can leave in the training blocks, and "
+            f"the curve), episodes the block split can leave scarce in the validation blocks, "
+            f"and "
             f"its likelihood ratio on every block gives p = {t['p_full'][t['named']]:.2g} "
             f"(level {t['alpha']:.0e}, allowing for the in-sample part); the validation "
             f"blocks do not contradict it."]
