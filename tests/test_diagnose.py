@@ -1017,3 +1017,19 @@ def test_hammerstein_rejects_a_non_positive_hp_factor(stiction_rec):
     from stictionbench.diagnosis.hammerstein import fit_hammerstein
     with pytest.raises(InputError, match="hp_factor"):
         fit_hammerstein(stiction_rec, hp_factor=0.0)
+
+
+def test_mismatch_band_is_quiet_when_op_sits_flat_at_a_limit():
+    """OP clipped flat at a travel limit through whole segments: the residual–OP
+    coherence is 0/0 there, reported as NaN without a RuntimeWarning on stderr."""
+    import warnings
+
+    from stictionbench.diagnosis.locate import mismatch_band
+
+    rng = np.random.default_rng(3)
+    r = rng.normal(size=2048)
+    op = np.full(2048, 100.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        band, info = mismatch_band(r, 1.0, 1.0, op=op)
+    assert np.isnan(info["coherence"]).all()

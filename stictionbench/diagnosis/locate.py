@@ -54,7 +54,10 @@ def mismatch_band(r: np.ndarray, Ts: float, sigma: float, op: np.ndarray | None 
     floor = 2.0 * sigma * sigma * Ts
     info: dict = {"f": f, "psd": P, "floor": floor}
     if op is not None:
-        fc, C = coherence(r, op, fs=1.0 / Ts, nperseg=nper)
+        # a spectrum exactly zero at a frequency (OP held flat, e.g. at a travel limit,
+        # through a whole segment) gives 0/0 there: NaN, reported as such, not a warning
+        with np.errstate(invalid="ignore", divide="ignore"):
+            fc, C = coherence(r, op, fs=1.0 / Ts, nperseg=nper)
         info["coherence_f"] = fc
         info["coherence"] = C
     ratio = P / max(floor, 1e-300)

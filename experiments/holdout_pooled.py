@@ -1,0 +1,277 @@
+"""The holdout family pooled over every seed block drawn so far, diagnosed by the code as shipped.
+
+``holdout_fresh.md`` scores one block of fresh seeds (12 per physics class and level, 24
+``none``); one block is a noisy estimate (level 2 moves by about one recording in 16
+between blocks). This script runs the blocks of :data:`BLOCKS` (``holdout_family.py
+--first-seed B --seeds 12 --none-seeds 24`` each, the package's default thresholds, a model
+given) and reports them pooled, block by block, and against the loop's in-band degrees of
+freedom ``band_dof`` (:func:`stictionbench.diagnosis.evidence.band_dof`: the independent
+validation samples in the comparison band; slow loops have few).
+
+**Which numbers are in-sample.** Every block but the last was looked at while rules were
+chosen (``holdout_family.SEEN_FRESH``: the band-dof gate and the range hypotheses' full-data
+test were checked on re-decisions of their stored evidence), so the pooled rates are not
+blind; the report gives the blind block's own rates beside them. No threshold was set on
+this family.
+
+Run: ``.venv/bin/python experiments/holdout_pooled.py [--cache DIR] [--jobs 2]``. Blocks
+whose CSV is already in ``--cache`` (``h<B>.csv``, written by ``holdout_family.py --name
+h<B> --out DIR`` at the same code) are read, not re-run. Outputs
+``reports/concealed/holdout_pooled.{md,csv,png}``. About 2 min per block on 2 cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "experiments"))
+
+import holdout_family as hf  # noqa: E402
+
+from stictionbench.io import atomic_path, write_text  # noqa: E402
+from stictionbench.rates import rate_text, wilson  # noqa: E402
+from stictionbench.reports.tables import to_markdown  # noqa: E402
+
+#: seed blocks of 12 seeds per physics class and level (24 for ``none``); 7000 is
+#: ``slow_line.py``'s and 20000 ``slow_loops.py``'s, so they are not holdout blocks here
+BLOCKS = (1000, 2000, 3000, 4000, 5000, 6000, 8000, 9000, 10000, 11000, 12000, 13000,
+          14000, 15000)
+#: the block ``make concealed`` draws blind (``holdout_fresh.md``)
+BLIND = 15000
+SEEDS, NONE_SEEDS = 12, 24
+#: in-band degrees of freedom bins of the report (the band-dof gate's reference is 100)
+DOF_BINS = (0.0, 25.0, 35.0, 60.0, 100.0, 200.0, np.inf)
+#: effect-size bins (the family's effect: 0.4–1 at level 1, 0–0.5 at level 2)
+EFFECT_BINS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0)
+KEEP = ["name", "class", "level", "seed", "effect", "noise_frac", "predicted_default",
+        "band_dof", "valve_model"]
+
+
+def block(first: int, cache: Path, jobs: int) -> pd.DataFrame:
+    """One block's rows: read from ``cache`` or run by ``holdout_family.main``."""
+    csv = cache / f"h{first}.csv"
+    if not csv.is_file():
+        hf.main(["--seeds", str(SEEDS), "--none-seeds", str(NONE_SEEDS), "--first-seed",
+                 str(first), "--name", f"h{first}", "--jobs", str(jobs), "--out",
+                 str(cache)])
+    df = pd.read_csv(csv)
+    df = df[[c for c in KEEP if c in df]].copy()
+    df["block"] = first
+    return df
+
+
+def per16(k: int, n: int) -> str:
+    """A rate as recordings out of 16, with its Wilson 95 % interval."""
+    lo, hi = wilson(k, n)
+    return f"{16 * k / n:.1f} [{16 * lo:.1f}, {16 * hi:.1f}]"
+
+
+def level_rows(df: pd.DataFrame) -> list[dict]:
+    """Per level: named correctly (all classes, out of 16), physics named, ``none``
+    called physics."""
+    ok = df.predicted_default == df["class"]
+    rows = []
+    for lvl in (1, 2):
+        g = df.level == lvl
+        phys, none = g & (df["class"] != "none"), g & (df["class"] == "none")
+        rows.append({"level": lvl, "recordings": int(g.sum()),
+                     "named correctly": rate_text(int(ok[g].sum()), int(g.sum())),
+                     "of 16 (95 % interval)": per16(int(ok[g].sum()), int(g.sum())),
+                     "physics classes named": rate_text(int(ok[phys].sum()),
+                                                        int(phys.sum())),
+                     "`none` called physics": rate_text(int((~ok[none]).sum()),
+                                                        int(none.sum()))})
+    return rows
+
+
+def by_block(df: pd.DataFrame) -> pd.DataFrame:
+    """Each block's level-1 and level-2 score out of 16 and its false alarms."""
+    ok = df.predicted_default == df["class"]
+    rows = []
+    for b, g in df.groupby("block"):
+        row: dict = {"block": b, "status": "blind" if b == BLIND else "seen"}
+        for lvl in (1, 2):
+            m = g.level == lvl
+            none = m & (g["class"] == "none")
+            row[f"level {lvl} of 16"] = round(16 * ok[g.index][m].mean(), 1)
+            row[f"level {lvl} none called physics"] = \
+                f"{int((~ok[g.index][none]).sum())}/{int(none.sum())}"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def by_dof(df: pd.DataFrame) -> pd.DataFrame:
+    """Named rate of the physics classes and the ``none`` false-alarm rate per level and
+    in-band dof bin."""
+    ok = df.predicted_default == df["class"]
+    d = df.assign(ok=ok, bin=pd.cut(df.band_dof, DOF_BINS, right=False))
+    rows = []
+    for (lvl, b), g in d.groupby(["level", "bin"], observed=True):
+        phys, none = g[g["class"] != "none"], g[g["class"] == "none"]
+        rows.append({"level": lvl, "band_dof": f"{b.left:g}–{b.right:g}",
+                     "physics named": rate_text(int(phys.ok.sum()), len(phys)),
+                     "`none` called physics": rate_text(int((~none.ok).sum()), len(none)),
+                     "_k": int(phys.ok.sum()), "_n": len(phys),
+                     "_fa": int((~none.ok).sum()), "_nn": len(none),
+                     "_mid": float(np.sqrt(max(b.left, 10.0) * min(b.right, 400.0)))})
+    return pd.DataFrame(rows)
+
+
+def by_effect(df: pd.DataFrame) -> pd.DataFrame:
+    """Named rate of the physics classes per level and effect-size bin: the detectability
+    curve (``none`` recordings have no effect and are left out)."""
+    ok = df.predicted_default == df["class"]
+    phys = df["class"] != "none"
+    d = df[phys].assign(ok=ok[phys], bin=pd.cut(df.effect[phys], EFFECT_BINS,
+                                                include_lowest=True))
+    rows = []
+    for (lvl, b), g in d.groupby(["level", "bin"], observed=True):
+        rows.append({"level": lvl, "effect": f"{max(b.left, 0.0):.1f}–{b.right:.1f}",
+                     "physics named": rate_text(int(g.ok.sum()), len(g)),
+                     "_k": int(g.ok.sum()), "_n": len(g), "_mid": float(b.mid)})
+    return pd.DataFrame(rows)
+
+
+def by_class(df: pd.DataFrame) -> pd.DataFrame:
+    """Named rate per class and level, and what the misses were called."""
+    ok = df.predicted_default == df["class"]
+    rows = []
+    for (cls, lvl), g in df.groupby(["class", "level"], sort=False):
+        wrong = g.predicted_default[~ok[g.index]].value_counts()
+        rows.append({"class": cls, "level": lvl,
+                     "named correctly": rate_text(int(ok[g.index].sum()), len(g)),
+                     "misses named": ", ".join(f"{k} ×{v}" for k, v in wrong.items()) or "–"})
+    return pd.DataFrame(rows)
+
+
+def _rates(ax, tab: pd.DataFrame, k: str, n: str) -> None:
+    """Rates ``tab[k]/tab[n]`` per level against ``tab._mid`` with Wilson intervals."""
+    for lvl, mk in ((1, "o-"), (2, "s--")):
+        g = tab[(tab.level == lvl) & (tab[n] > 0)]
+        p = g[k] / g[n]
+        ci = np.array([wilson(int(a), int(b)) for a, b in zip(g[k], g[n], strict=True)])
+        ax.errorbar(g._mid, p, yerr=[p - ci[:, 0], ci[:, 1] - p], fmt=mk, capsize=3,
+                    label=f"level {lvl}")
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+
+
+def figure(dof: pd.DataFrame, eff: pd.DataFrame, out: Path) -> Path:
+    """Named rate and false-alarm rate against the in-band dof, and the named rate
+    against the effect size, with Wilson intervals."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(14, 3.8))
+    for ax, (k, n, title) in zip(axes[:2], (("_k", "_n", "physics classes named correctly"),
+                                            ("_fa", "_nn", "`none` called physics")),
+                                 strict=True):
+        _rates(ax, dof, k, n)
+        ax.set_xscale("log")
+        ax.set_xticks([20, 30, 50, 100, 200, 400], ["20", "30", "50", "100", "200", "400"])
+        ax.minorticks_off()
+        ax.set_xlabel("in-band degrees of freedom (band_dof, bin centres)")
+        ax.set_title(title, fontsize=10)
+        ax.axvline(100, color="grey", lw=0.8, ls=":")
+    axes[1].axhline(0.05, color="red", lw=0.8, ls=":", label="goal 5 %")
+    _rates(axes[2], eff, "_k", "_n")
+    axes[2].set_xlabel("effect size (family units)")
+    axes[2].set_title("physics named against effect size", fontsize=10)
+    for ax in axes:
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    path = out / "holdout_pooled.png"
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+    return path
+
+
+def report(df: pd.DataFrame) -> str:
+    blind = df[df.block == BLIND]
+    dof, eff = by_dof(df), by_effect(df)
+    lines = [
+        "# Holdout family pooled over its seed blocks",
+        "",
+        f"Generated by `experiments/holdout_pooled.py`: {len(df)} recordings, "
+        f"{df.block.nunique()} blocks of 12 seeds per physics class and level (24 `none`), "
+        "each diagnosed with a model given and the package's default thresholds, by the "
+        "code as shipped (the blocks re-run, not their earlier verdicts). Rates carry "
+        "Wilson 95 % intervals.",
+        "",
+        "**In-sample status.** Every block except "
+        f"{BLIND} was looked at while rules were chosen (`holdout_family.SEEN_FRESH`), so "
+        f"the pooled rates are not blind; block {BLIND} was drawn after the last rule "
+        "change and is the blind estimate. No threshold was set on this family.",
+        "",
+        "## Pooled",
+        "",
+        to_markdown(pd.DataFrame(level_rows(df))),
+        "",
+        f"## Block {BLIND} alone (blind)",
+        "",
+        to_markdown(pd.DataFrame(level_rows(blind))) if len(blind) else "(not run)",
+        "",
+        "## Block by block",
+        "",
+        to_markdown(by_block(df)),
+        "",
+        "## Against the in-band degrees of freedom",
+        "",
+        "Slow loops (time constant of a minute and more at 1 s sampling) leave few "
+        "independent validation samples in the comparison band; below 100 the NRMSE gate "
+        "is widened (`evidence.scaled_gate`).",
+        "",
+        f"![named and false-alarm rates against band dof and effect size]"
+        f"({figure(dof, eff, OUT).name})",
+        "",
+        to_markdown(dof[[c for c in dof if not c.startswith("_")]]),
+        "",
+        "## Against the effect size (detectability)",
+        "",
+        "The family draws the effect uniformly, 0.4–1 at level 1 and 0–0.5 at level 2 "
+        "(`holdout_family.draw`: e.g. a stick band S = 0.5 + 5.5·effect % of OP, a dead "
+        "band 0.5 + 4.5·effect %), so part of level 2 is at or under what any test can "
+        "see in the record's noise and load.",
+        "",
+        to_markdown(eff[[c for c in eff if not c.startswith("_")]]),
+        "",
+        "## Class by class, pooled",
+        "",
+        to_markdown(by_class(df)),
+        "",
+    ]
+    return "\n".join(lines)
+
+
+OUT = ROOT / "reports" / "concealed"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cache", default=str(ROOT / ".cache" / "holdout_blocks"),
+                    help="where block CSVs are kept (read when present)")
+    ap.add_argument("--jobs", type=int, default=2)
+    a = ap.parse_args(argv)
+    cache = Path(a.cache)
+    cache.mkdir(parents=True, exist_ok=True)
+    df = pd.concat([block(b, cache, a.jobs) for b in BLOCKS], ignore_index=True)
+    with atomic_path(OUT / "holdout_pooled.csv") as tmp:
+        df.round({"effect": 6, "noise_frac": 6, "band_dof": 2}).to_csv(
+            tmp, index=False, lineterminator="\n", float_format="%.6g")
+    text = report(df)
+    write_text(OUT / "holdout_pooled.md", text)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

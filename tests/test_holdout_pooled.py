@@ -1,0 +1,86 @@
+"""The pooled holdout report's tables (``experiments/holdout_pooled.py``) and the null loop
+of ``experiments/bootstrap_null.py`` on hand-made inputs."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+
+import bootstrap_null as bn  # noqa: E402
+import holdout_pooled as hp  # noqa: E402
+
+from stictionbench.diagnosis.model import NominalModel  # noqa: E402
+from stictionbench.diagnosis.openloop import fopdt_response  # noqa: E402
+
+
+def _frame() -> pd.DataFrame:
+    rows = []
+    for block in (1000, hp.BLIND):
+        for lvl in (1, 2):
+            for i in range(8):
+                cls = "none" if i < 2 else "stiction"
+                # level 1: every verdict right; level 2: one physics miss and, in the
+                # blind block, one none called physics
+                pred = cls
+                if lvl == 2 and i == 7:
+                    pred = "none"
+                if lvl == 2 and i == 0 and block == hp.BLIND:
+                    pred = "deadband"
+                rows.append({"name": f"{block}_{lvl}_{i}", "class": cls, "level": lvl,
+                             "seed": block + i, "predicted_default": pred,
+                             "band_dof": 20.0 if i % 2 else 150.0, "block": block,
+                             "effect": 0.0 if cls == "none" else 0.12 * i})
+    return pd.DataFrame(rows)
+
+
+def test_level_rows_count_named_and_false_alarms():
+    rows = {r["level"]: r for r in hp.level_rows(_frame())}
+    assert rows[1]["named correctly"].startswith("16/16")
+    assert rows[1]["of 16 (95 % interval)"].startswith("16.0")
+    assert rows[2]["named correctly"].startswith("13/16")
+    assert rows[2]["`none` called physics"].startswith("1/4")
+
+
+def test_blocks_and_dof_bins_split_the_same_verdicts():
+    df = _frame()
+    blocks = hp.by_block(df).set_index("block")
+    assert blocks.loc[1000, "level 2 of 16"] == 14.0
+    assert blocks.loc[hp.BLIND, "level 2 none called physics"] == "1/2"
+    assert blocks.loc[hp.BLIND, "status"] == "blind"
+    dof = hp.by_dof(df)
+    # every recording lands in exactly one bin
+    assert int(dof._n.sum() + dof._nn.sum()) == len(df)
+    slow = dof[(dof.level == 2) & (dof.band_dof.str.startswith("0"))].iloc[0]
+    # odd i at 20 dof: i = 3, 5 named and i = 7 missed in each block; i = 1 is `none`
+    assert (slow._k, slow._n, slow._nn) == (4, 6, 2)
+
+
+def test_the_detectability_table_leaves_none_out_and_bins_by_effect():
+    eff = hp.by_effect(_frame())
+    assert int(eff._n.sum()) == 24  # 6 physics recordings per level and block
+    # level 2: the one miss per block (i = 7, effect 0.84) sits in the top bin
+    top = eff[(eff.level == 2) & (eff.effect == "0.8–1.0")].iloc[0]
+    assert (top._k, top._n) == (0, 2)
+
+
+def test_the_null_loop_without_disturbance_settles_on_the_set_point():
+    m = NominalModel(2.0, 10.0, 3.0, 0.3, 10.0, 1.0, "given")
+    n = 600
+    sp = np.where(np.arange(n) < 50, 1.0, 3.0)
+    y, u = bn.closed_loop(m, sp, np.zeros(n), 50.0, 1.0, 1.0)
+    assert abs(y[-1] - 3.0) < 1e-3
+    # PV is the model's response to the simulated OP: the loop and the FOPDT agree
+    np.testing.assert_allclose(y, 1.0 + 2.0 * fopdt_response(u, 1.0, 10.0, 3.0), atol=1e-9)
+
+
+def test_the_sieve_disturbance_keeps_its_scale_and_start():
+    rng = np.random.default_rng(0)
+    r = np.cumsum(rng.normal(size=2000)) * 0.1 + rng.normal(size=2000)
+    v = bn.null_disturbance(r, 2000, np.random.default_rng(1))
+    assert v[0] == r[0]
+    assert 0.2 < np.std(np.diff(v)) / np.std(np.diff(r)) < 5.0
