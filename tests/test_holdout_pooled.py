@@ -84,3 +84,18 @@ def test_the_sieve_disturbance_keeps_its_scale_and_start():
     v = bn.null_disturbance(r, 2000, np.random.default_rng(1))
     assert v[0] == r[0]
     assert 0.2 < np.std(np.diff(v)) / np.std(np.diff(r)) < 5.0
+
+
+def test_matched_table_counts_recordings_and_nulls_per_condition_and_speed():
+    mt = pd.DataFrame({"condition": ["no load"] * 4 + ["as drawn"] * 2,
+                       "tau": [120.0] * 4 + [30.0] * 2,
+                       "level": [1, 1, 2, 2, 1, 2], "seed": [0, 1, 0, 1, 0, 0],
+                       "band_dof": [9.0, 11.0, 10.0, 12.0, 60.0, 70.0],
+                       "recording": ["stiction", "none", "none", "none", "none", "none"],
+                       "null": ["deadband", "stiction", "none", "none", "none", "none"]})
+    tab = bn.matched_table(mt).set_index(["condition", "tau_s"])
+    row = tab.loc[("no load", 120.0)]
+    assert row["recordings called physics"].startswith("1/4")
+    assert row["their nulls called physics"].startswith("2/4")
+    assert row["median band_dof"] == 10.5
+    assert tab.loc[("as drawn", 30.0), "their nulls called physics"].startswith("0/2")
