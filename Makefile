@@ -86,10 +86,12 @@ concealed: venv
 
 # the holdout family pooled over all its seed blocks (14 x 216 recordings, re-run by the
 # shipped code; block CSVs cached in .cache/holdout_blocks), then the closed-loop
-# parametric bootstrap of its false alarms (about 45 minutes on 2 cores)
+# parametric bootstrap of its false alarms and the comparison band's phase varied alone
+# (about an hour on 2 cores)
 holdout-pooled: venv
 	$(BIN)/python experiments/holdout_pooled.py --jobs 2
 	$(BIN)/python experiments/bootstrap_null.py --jobs 2
+	$(BIN)/python experiments/causal_filter.py --jobs 2
 
 lint: venv
 	$(BIN)/ruff check stictionbench tests benchmarks experiments

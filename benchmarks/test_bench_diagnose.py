@@ -53,7 +53,12 @@ import pytest
 from scipy import signal as sps
 
 from stictionbench.diagnosis import diagnose, load_model
-from stictionbench.diagnosis.openloop import fopdt_biquad, fopdt_coefficients, highpass
+from stictionbench.diagnosis.openloop import (
+    band_sos,
+    fopdt_biquad,
+    fopdt_coefficients,
+    highpass,
+)
 from stictionbench.io import read_recording, write_text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,13 +89,7 @@ def sos_highpass(x: np.ndarray, Ts: float, f_c: float | None,
     x = np.asarray(x, dtype=float)
     if f_c is None or f_c <= 0:
         return x - x.mean(axis=0)
-    fs = 1.0 / float(Ts)
-    sos = sps.butter(2, float(f_c), btype="highpass", fs=fs, output="sos")
-    if f_lp:
-        low = sps.butter(2, min(float(f_lp), 0.499 * fs), btype="lowpass", fs=fs,
-                         output="sos")
-        sos = np.vstack([sos, low])
-    return sps.sosfiltfilt(sos, x, axis=0)
+    return sps.sosfiltfilt(band_sos(Ts, f_c, f_lp), x, axis=0)
 
 
 def best_of(fn: Callable[[], Any], rounds: int = 2, warmup: int = 0) -> tuple[float, Any]:

@@ -200,6 +200,21 @@ def _ramp(n: int) -> np.ndarray:
     return r
 
 
+def band_sos(Ts: float, f_c: float, f_lp: float | None = None) -> np.ndarray:
+    """Second-order sections of the 2nd-order Butterworth high-pass at ``f_c`` Hz (and
+    low-pass at ``f_lp``, capped below Nyquist) whose magnitude :func:`highpass` applies
+    forwards and backwards; for time-domain versions of the same band
+    (``scipy.signal.sosfiltfilt``, or ``sosfilt`` for a causal one)."""
+    from scipy.signal import butter
+
+    fs = 1.0 / float(Ts)
+    sos = butter(2, float(f_c), btype="highpass", fs=fs, output="sos")
+    if f_lp:
+        sos = np.vstack([sos, butter(2, min(float(f_lp), 0.499 * fs), btype="lowpass",
+                                     fs=fs, output="sos")])
+    return sos
+
+
 def highpass(x: np.ndarray, Ts: float, f_c: float | None,
              f_lp: float | None = None) -> np.ndarray:
     """Zero-phase high-pass at ``f_c`` Hz with the magnitude of a 2nd-order Butterworth
