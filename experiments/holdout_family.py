@@ -211,6 +211,11 @@ SEEN_FRESH = {
            "reference of 100 read off `slow_loops.md` before this block was scored with "
            "it) scored 99/108 and 82/108 here, `none` called physics 4/24 and 2/24, and "
            "was shipped.",
+    15000: "drawn blind after the scaled gate and the full-data test (make concealed's "
+           "`holdout_fresh.md`): 107/108 at level 1, 87/108 at level 2, `none` called "
+           "physics 0/24 and 3/24. Then looked at, with no rule changed: its false alarms "
+           "bootstrapped (`bootstrap_null.md`) and a causal comparison band scored on it "
+           "(`causal_filter.md`, not shipped). The next rule change is scored on 16000.",
     20000: "`slow_loops.py`'s healthy loops (seeds 20000-20023 of `none`, their speed "
            "varied); the other classes there are undrawn.",
 }
