@@ -67,7 +67,7 @@ from stictionbench.diagnosis.model import NominalModel  # noqa: E402
 from stictionbench.diagnosis.noise import fit_noise_model  # noqa: E402
 from stictionbench.diagnosis.openloop import fopdt_coefficients, fopdt_response  # noqa: E402
 from stictionbench.io import atomic_path, read_recording, write_text  # noqa: E402
-from stictionbench.rates import rate_text  # noqa: E402
+from stictionbench.rates import fisher_p, rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
@@ -101,18 +101,19 @@ def closed_loop(m: NominalModel, sp: np.ndarray, v: np.ndarray, op0: float, pv0:
     """PV and OP of the nominal loop: ``PV = pv0 + K·G(OP − op0) + v`` with the given PI
     (velocity form, OP clipped to 0–100) acting on ``SP − PV`` every sample."""
     b, a = fopdt_coefficients(Ts, m.time_constant, m.dead_time)
+    # the discrete FOPDT has two input taps, at d + 1 and d + 2 samples (the dead time's
+    # whole and fractional parts): x[k] = a·x[k−1] + b₁·Δu[k−d−1] + b₂·Δu[k−d−2]
+    d = b.size - 3
+    b1, b2, pole = float(b[d + 1]), float(b[d + 2]), float(-a[1])
     n = sp.size
     u = np.empty(n)
     y = np.empty(n)
-    x = 0.0
-    e_prev = 0.0
     du = np.zeros(n)
+    x = e_prev = 0.0
     for k in range(n):
-        acc = 0.0
-        for j in range(1, b.size):
-            if k - j >= 0:
-                acc += b[j] * du[k - j]
-        x = -a[1] * x + acc
+        acc = (b1 * du[k - d - 1] if k > d else 0.0) + (b2 * du[k - d - 2] if k > d + 1
+                                                         else 0.0)
+        x = pole * x + acc
         y[k] = pv0 + m.gain * x + v[k]
         e = sp[k] - y[k]
         u[k] = op0 if k == 0 else min(max(u[k - 1] + m.kc * ((e - e_prev) + Ts * e / m.ti),
@@ -205,10 +206,8 @@ def run_matched(cond: str, tau: float, level: int, seed: int) -> dict:
 def compare_line(what: str, g: pd.DataFrame) -> str:
     """Recordings against their nulls called physics, with Fisher's exact test of equal
     rates, and what that says."""
-    from scipy.stats import fisher_exact
-
     k_r, k_n, n = int((g.recording != "none").sum()), int((g.null != "none").sum()), len(g)
-    p = float(fisher_exact([[k_r, n - k_r], [k_n, n - k_n]])[1])
+    p = fisher_p(k_r, n, k_n, n)
     if p >= 0.05:
         says = ("no difference detected at this size: consistent with the rule's rate on "
                 "these healthy loops being its own (its calibration on loops like these) "

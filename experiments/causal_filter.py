@@ -36,7 +36,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from scipy import signal as sps
-from scipy.stats import fisher_exact
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -47,7 +46,7 @@ from concealed import run_one, write_job  # noqa: E402
 
 from stictionbench.diagnosis.openloop import band_sos  # noqa: E402
 from stictionbench.io import atomic_path, write_text  # noqa: E402
-from stictionbench.rates import rate_text  # noqa: E402
+from stictionbench.rates import fisher_p, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
@@ -136,13 +135,9 @@ def with_shipped(df: pd.DataFrame) -> pd.DataFrame:
     return pd.concat([h, s], ignore_index=True)
 
 
-def _fisher(k1: int, k2: int, n: int) -> float:
-    return float(fisher_exact([[k1, n - k1], [k2, n - k2]])[1])
-
-
 def reading(k_z: int, k_c: int, n_none: int, n_z: int, n_c: int, n_phys: int) -> str:
     """What the two comparisons say, decided by their Fisher tests."""
-    p_fa, p_named = _fisher(k_z, k_c, n_none), _fisher(n_z, n_c, n_phys)
+    p_fa, p_named = fisher_p(k_z, n_none, k_c, n_none), fisher_p(n_z, n_phys, n_c, n_phys)
     if k_c < k_z:
         fa = ("the causal band calls fewer healthy loops faulty"
               + (" (significant at 5 %), which supports the closed-loop mechanism of the "
@@ -210,10 +205,11 @@ def report(df: pd.DataFrame, th: tuple[float, float]) -> str:
         to_markdown(pd.DataFrame(rows)),
         "",
         f"- healthy recordings called physics, all sets: zero-phase {rate_text(k_z, len(nn))}"
-        f", causal {rate_text(k_c, len(nn))} (Fisher p = {_fisher(k_z, k_c, len(nn)):.2g});",
+        f", causal {rate_text(k_c, len(nn))} "
+        f"(Fisher p = {fisher_p(k_z, len(nn), k_c, len(nn)):.2g});",
         f"- holdout physics recordings named correctly: zero-phase "
         f"{rate_text(n_z, len(phys))}, causal {rate_text(n_c, len(phys))} (Fisher p = "
-        f"{_fisher(n_z, n_c, len(phys)):.2g}).",
+        f"{fisher_p(n_z, len(phys), n_c, len(phys)):.2g}).",
         "",
         f"- thresholds set again for the causal band on the three tuning families' causal "
         f"evidence (`concealed.tune`, the shipped rule; {len(FAMILY_SEEDS)} seeds per class "

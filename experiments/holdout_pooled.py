@@ -239,8 +239,7 @@ def report(df: pd.DataFrame) -> str:
         "",
         "The family draws the effect uniformly, 0.4–1 at level 1 and 0–0.5 at level 2 "
         "(`holdout_family.draw`: e.g. a stick band S = 0.5 + 5.5·effect % of OP, a dead "
-        "band 0.5 + 4.5·effect %), so part of level 2 is at or under what any test can "
-        "see in the record's noise and load.",
+        "band 0.5 + 4.5·effect %); the table gives the named rate per effect bin.",
         "",
         to_markdown(eff[[c for c in eff if not c.startswith("_")]]),
         "",

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy.stats import norm
+from scipy.stats import fisher_exact, norm
 
 
 def decided(s: pd.Series) -> np.ndarray:
@@ -54,6 +54,20 @@ def rate_text(k: int, n: int, level: float = 0.95) -> str:
         return "0/0"
     lo, hi = wilson(k, n, level)
     return f"{k}/{n} = {100 * k / n:.0f} % [{100 * lo:.0f}, {100 * hi:.0f}]"
+
+
+def fisher_p(k1: int, n1: int, k2: int, n2: int) -> float:
+    """Two-sided p-value of Fisher's exact test that ``k1/n1`` and ``k2/n2`` are the same
+    rate (``scipy.stats.fisher_exact`` on the 2 × 2 table; Fisher 1935).
+
+    Examples
+    --------
+    >>> round(fisher_p(24, 288, 11, 288), 3)
+    0.035
+    >>> fisher_p(3, 10, 3, 10)
+    1.0
+    """
+    return float(fisher_exact([[k1, n1 - k1], [k2, n2 - k2]])[1])
 
 
 def roc_curve(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
