@@ -71,7 +71,7 @@ concealed: venv
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --model-free
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --output-error
 	$(BIN)/python experiments/holdout_family.py --seeds 4 --none-seeds 8 --jobs 2
-	$(BIN)/python experiments/holdout_family.py --seeds 12 --none-seeds 24 --first-seed 15000 --name holdout_fresh --jobs 2
+	$(BIN)/python experiments/holdout_family.py --seeds 12 --none-seeds 24 --first-seed 21000 --name holdout_fresh --jobs 2
 	$(BIN)/python experiments/slow_line.py --loops 8 --jobs 2
 	$(BIN)/python experiments/slow_loops.py --seeds 24 --jobs 2
 	$(BIN)/python experiments/saturation_evidence.py --seeds 24 --jobs 2
@@ -84,10 +84,10 @@ concealed: venv
 	$(BIN)/python experiments/stiction_controller_rate.py
 	$(BIN)/python experiments/verdict_stability.py --trim 7 --jobs 2
 
-# the holdout family pooled over all its seed blocks (14 x 216 recordings, re-run by the
-# shipped code; block CSVs cached in .cache/holdout_blocks), then the closed-loop
-# parametric bootstrap of its false alarms and the comparison band's phase varied alone
-# (about an hour on 2 cores)
+# the holdout family pooled over its seed blocks at the current comparison band (8 x 216
+# recordings, re-run by the shipped code; block CSVs cached in .cache/holdout_blocks), then
+# the closed-loop parametric bootstrap of its false alarms and the comparison band's
+# phase varied alone, both bands run (about 90 minutes on 2 cores)
 holdout-pooled: venv
 	$(BIN)/python experiments/holdout_pooled.py --jobs 2
 	$(BIN)/python experiments/bootstrap_null.py --jobs 2

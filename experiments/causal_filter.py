@@ -14,15 +14,17 @@ Varied alone: the same diagnosis with the band applied causally (``scipy.signal.
 of the same 2nd-order Butterworth high-pass and low-pass, forwards only, from the first
 sample) in the fits and the validation of the comparison band (``diagnosis.fit``,
 ``diagnosis.evidence``, ``diagnosis.diagnose``; the model-free identification and the
-cycle check keep theirs). Recordings: the holdout family's blocks :data:`BLOCKS` (the
-shipped verdicts read from ``holdout_pooled.csv``) and ``slow_loops.py``'s healthy loops
-at time constants 60 and 120 s, with and without their load (the shipped verdicts read
-from ``slow_loops.csv``). Nothing here changes the package. Thresholds: as shipped (set
-with the zero-phase band), and set again for the causal band by the shipped tuning rule
-(``concealed.tune``) on the three tuning families' causal evidence at ``make concealed``'s
-seeds, then applied to the same holdout and slow-loop evidence.
+cycle check keep theirs). Both bands are run here (:data:`BANDS`, :func:`use_band`): the
+zero-phase one was shipped when this comparison was made, and the causal one
+(:func:`stictionbench.diagnosis.openloop.comparison_band`) replaced it after
+``causal_blind.py`` scored both on blocks neither had seen. Recordings: the holdout
+family's blocks :data:`BLOCKS` and ``slow_loops.py``'s healthy loops at time constants 60
+and 120 s, with and without their load. Thresholds: as shipped (set with the zero-phase
+band), and set again for the causal band by the shipped tuning rule (``concealed.tune``)
+on the three tuning families' causal evidence at ``make concealed``'s seeds, then applied
+to the same holdout and slow-loop evidence.
 
-Run: ``.venv/bin/python experiments/causal_filter.py [--jobs 2]`` (about 15 min on 2
+Run: ``.venv/bin/python experiments/causal_filter.py [--jobs 2]`` (about 25 min on 2
 cores). Outputs ``reports/concealed/causal_filter.{md,csv}``.
 """
 
@@ -35,7 +37,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy import signal as sps
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -44,7 +45,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 import holdout_family as hf  # noqa: E402
 from concealed import run_one, write_job  # noqa: E402
 
-from stictionbench.diagnosis.openloop import band_sos  # noqa: E402
+from stictionbench.diagnosis.openloop import comparison_band, highpass  # noqa: E402
 from stictionbench.io import atomic_path, write_text  # noqa: E402
 from stictionbench.rates import fisher_p, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -59,32 +60,26 @@ SLOW_SEEDS = range(20000, 20024)
 FAMILY_SEEDS = range(4)
 
 
-def causal_band(x: np.ndarray, Ts: float, f_c: float | None,
-                f_lp: float | None = None) -> np.ndarray:
-    """The comparison band applied causally: the 2nd-order Butterworth high-pass at
-    ``f_c`` (and low-pass at ``f_lp``) by ``scipy.signal.sosfilt`` from the first sample
-    (deviation from it), along axis 0; mean removal when ``f_c`` is None."""
-    x = np.asarray(x, dtype=float)
-    if f_c is None or f_c <= 0:
-        return x - x.mean(axis=0)
-    return sps.sosfilt(band_sos(Ts, f_c, f_lp), x - x[0], axis=0)
+#: the two comparison bands varied: the zero-phase band shipped until the causal one
+#: replaced it (prompted by this report and ``causal_blind.md``), and the causal band
+BANDS = {"zero_phase": highpass, "causal": comparison_band}
 
 
-def _use_causal_band() -> None:
-    """Swap the comparison band for :func:`causal_band` in this process."""
+def use_band(band: str) -> None:
+    """Make ``band`` (:data:`BANDS`) the diagnosis's comparison band in this process."""
     from stictionbench.diagnosis import diagnose as d_mod
     from stictionbench.diagnosis import evidence, fit
 
-    fit.highpass = evidence.highpass = d_mod.highpass = causal_band
+    fit.comparison_band = evidence.comparison_band = d_mod.comparison_band = BANDS[band]
 
 
-def holdout_case(cls: str, level: int, seed: int) -> dict:
-    """One holdout recording diagnosed with the causal band."""
-    _use_causal_band()
+def holdout_case(cls: str, level: int, seed: int, band: str = "causal") -> dict:
+    """One holdout recording diagnosed with ``band``."""
+    use_band(band)
     with tempfile.TemporaryDirectory() as tmp:
         row = run_one(hf.generate(cls, level, seed, Path(tmp)))
     return {"set": "holdout", "class": cls, "level": level, "seed": seed,
-            "band_dof": row["band_dof"], "causal": row["predicted_default"],
+            "band_dof": row["band_dof"], "band": band, "pick": row["predicted_default"],
             "_row": row}
 
 
@@ -93,7 +88,7 @@ def family_case(family: str, cls: str, level: int, seed: int) -> dict:
     seeds) diagnosed with the causal band: the evidence the thresholds are set on again."""
     from concealed import generate
 
-    _use_causal_band()
+    use_band("causal")
     with tempfile.TemporaryDirectory() as tmp:
         return run_one(generate(cls, level, seed, Path(tmp), family))
 
@@ -108,31 +103,38 @@ def retuned(fam: pd.DataFrame, hold: pd.DataFrame) -> tuple[tuple[float, float],
     return th, picks(hold, *th)
 
 
-def slow_case(cond: str, tau: float, level: int, seed: int) -> dict:
-    """One of ``slow_loops.py``'s healthy loops diagnosed with the causal band."""
+def slow_case(cond: str, tau: float, level: int, seed: int, band: str = "causal") -> dict:
+    """One of ``slow_loops.py``'s healthy loops diagnosed with ``band``."""
     import slow_loops as sl
 
-    _use_causal_band()
+    use_band(band)
     duration, load_scale = sl.CONDITIONS[cond]
     with tempfile.TemporaryDirectory() as tmp:
         c, sig = sl.scaled_recording(level, seed, tau, duration, load_scale)
         row = run_one(write_job(c, sig, Path(tmp)))
     return {"set": "slow_loops", "condition": cond, "tau": tau, "class": "none",
-            "level": level, "seed": seed, "band_dof": row["band_dof"],
-            "causal": row["predicted_default"], "_row": row}
+            "level": level, "seed": seed, "band_dof": row["band_dof"], "band": band,
+            "pick": row["predicted_default"], "_row": row}
 
 
-def with_shipped(df: pd.DataFrame) -> pd.DataFrame:
-    """Attach the shipped (zero-phase) verdicts of the same recordings."""
-    pooled = pd.read_csv(OUT / "holdout_pooled.csv")[["class", "level", "seed",
-                                                      "predicted_default"]]
-    slow = pd.read_csv(OUT / "slow_loops.csv").rename(columns={"pick": "shipped"})
-    h = df[df.set == "holdout"].merge(pooled, on=["class", "level", "seed"], how="left")
-    h = h.rename(columns={"predicted_default": "shipped"})
-    s = df[df.set == "slow_loops"].merge(
-        slow[["condition", "tau", "level", "seed", "shipped"]],
-        on=["condition", "tau", "level", "seed"], how="left")
-    return pd.concat([h, s], ignore_index=True)
+KEYS = ["set", "condition", "tau", "class", "level", "seed"]
+
+
+def side_by_side(rows: list[dict]) -> pd.DataFrame:
+    """One row per recording: its verdict with the zero-phase band (column ``shipped``,
+    the band shipped when this comparison was made) and with the causal band
+    (``causal``)."""
+    df = pd.DataFrame([{k: v for k, v in r.items() if k != "_row"} for r in rows])
+    for k in ("condition", "tau"):
+        if k not in df:
+            df[k] = np.nan
+    df[["condition", "tau"]] = df[["condition", "tau"]].astype(object).where(
+        df[["condition", "tau"]].notna(), "")
+    wide = df.pivot_table(index=KEYS, columns="band", values="pick", aggfunc="first")
+    dof = df[df.band == "causal"].set_index(KEYS)["band_dof"]
+    out = wide.rename(columns={"zero_phase": "shipped"}).join(dof).reset_index()
+    out.columns.name = None
+    return out
 
 
 def reading(k_z: int, k_c: int, n_none: int, n_z: int, n_c: int, n_phys: int) -> str:
@@ -150,7 +152,8 @@ def reading(k_z: int, k_c: int, n_none: int, n_z: int, n_c: int, n_phys: int) ->
              "it names as many or more physics recordings correctly")
     named += " (significant at 5 %)" if p_named < 0.05 else " (not significant at 5 %)"
     return (f"{fa}; {named}, with the thresholds as set (chosen with the zero-phase band). "
-            "With thresholds set again on the three families see the line above. Not shipped.")
+            "With thresholds set again on the three families see the line above. Scored "
+            "afterwards on blocks neither band had seen (`causal_blind.md`), then shipped.")
 
 
 def report(df: pd.DataFrame, th: tuple[float, float]) -> str:
@@ -163,7 +166,7 @@ def report(df: pd.DataFrame, th: tuple[float, float]) -> str:
         phys, none = g["class"] != "none", g["class"] == "none"
         rows.append({"recordings": f"holdout blocks {', '.join(map(str, BLOCKS))}, "
                                    f"level {lvl}",
-                     "physics named, zero-phase (shipped)": rate_text(
+                     "physics named, zero-phase (shipped then)": rate_text(
                          int(ok_s[g.index][phys].sum()), int(phys.sum())),
                      "physics named, causal": rate_text(int(ok_c[g.index][phys].sum()),
                                                         int(phys.sum())),
@@ -178,7 +181,7 @@ def report(df: pd.DataFrame, th: tuple[float, float]) -> str:
     s = df[df.set == "slow_loops"]
     for (cond, tau), g in s.groupby(["condition", "tau"], sort=False):
         rows.append({"recordings": f"slow_loops healthy, {cond}, τ = {tau:g} s",
-                     "physics named, zero-phase (shipped)": "–",
+                     "physics named, zero-phase (shipped then)": "–",
                      "physics named, causal": "–",
                      "`none` called physics, zero-phase": rate_text(
                          int((g.shipped != "none").sum()), len(g)),
@@ -193,7 +196,7 @@ def report(df: pd.DataFrame, th: tuple[float, float]) -> str:
     n_z, n_c = int(ok_s[phys.index].sum()), int(ok_c[phys.index].sum())
     k_r, n_r = int((nn.retuned != "none").sum()), int(ok_r[phys.index].sum())
     lines = [
-        "# The comparison band's phase varied alone: zero-phase (shipped) against causal",
+        "# The comparison band's phase varied alone: zero-phase (shipped then) against causal",
         "",
         "Generated by `experiments/causal_filter.py` (the question and the method in its "
         "docstring). Same recordings, same thresholds, same fits; only the band filter "
@@ -229,10 +232,12 @@ def main(argv=None) -> int:
     from joblib import Parallel, delayed
     from tqdm import tqdm
 
-    todo = [delayed(holdout_case)(c, lvl, s) for b in BLOCKS for lvl in (1, 2)
-            for c in hf.CLASSES for s in range(b, b + (24 if c == "none" else 12))]
-    todo += [delayed(slow_case)(cond, tau, lvl, s) for cond in SLOW_CONDITIONS
-             for tau in SLOW_TAUS for lvl in (1, 2) for s in SLOW_SEEDS]
+    todo = [delayed(holdout_case)(c, lvl, s, band) for band in BANDS for b in BLOCKS
+            for lvl in (1, 2) for c in hf.CLASSES
+            for s in range(b, b + (24 if c == "none" else 12))]
+    todo += [delayed(slow_case)(cond, tau, lvl, s, band) for band in BANDS
+             for cond in SLOW_CONDITIONS for tau in SLOW_TAUS for lvl in (1, 2)
+             for s in SLOW_SEEDS]
     from concealed_families import CLASSES as FAM_CLASSES
     from concealed_families import FAMILIES
 
@@ -242,9 +247,14 @@ def main(argv=None) -> int:
         fam_todo), total=len(fam_todo), desc="families")))
     rows = list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator_unordered")(todo),
                      total=len(todo), desc="diagnose"))
-    th, again = retuned(fam, pd.DataFrame([r["_row"] for r in rows]))
-    df = pd.DataFrame([{k: v for k, v in r.items() if k != "_row"} for r in rows])
-    df = with_shipped(df.assign(retuned=again.to_numpy()))
+    causal = sorted((r for r in rows if r["band"] == "causal"),
+                    key=lambda r: tuple(str(r.get(k, "")) for k in KEYS))
+    th, again = retuned(fam, pd.DataFrame([r["_row"] for r in causal]))
+    df = side_by_side(rows).merge(
+        pd.DataFrame([{**{k: r.get(k, "") for k in KEYS}, "retuned": p}
+                      for r, p in zip(causal, again, strict=True)]),
+        on=KEYS, how="left", validate="one_to_one")
+    df[["condition", "tau"]] = df[["condition", "tau"]].replace("", np.nan)
     df = df.sort_values(["set", "condition", "tau", "class", "level", "seed"],
                         na_position="first", ignore_index=True)
     with atomic_path(OUT / "causal_filter.csv") as tmp:

@@ -29,9 +29,9 @@ default thresholds). Outputs: ``reports/concealed/holdout.md`` and ``holdout.csv
 Run: ``.venv/bin/python experiments/holdout_family.py [--seeds 4] [--none-seeds 8]
 [--first-seed 0] [--name holdout]``. ``make concealed`` runs it twice: at seeds 0–3
 (``none`` 0–7: ``holdout.md``, the recordings several rules were checked on, see the
-report) and at seeds from 15000 (``holdout_fresh.md``: seeds no experiment had drawn when
+report) and at seeds from 21000 (``holdout_fresh.md``: seeds no experiment had drawn when
 that report was written, 12 per class and level, 24 for ``none``; the blocks from 1000
-to 14000 were looked at first, see :data:`SEEN_FRESH`; 7000 is ``slow_line.py``'s, 20000
+to 19000 were looked at first, see :data:`SEEN_FRESH`; 7000 is ``slow_line.py``'s, 20000
 ``slow_loops.py``'s).
 """
 
@@ -215,7 +215,18 @@ SEEN_FRESH = {
            "`holdout_fresh.md`): 107/108 at level 1, 87/108 at level 2, `none` called "
            "physics 0/24 and 3/24. Then looked at, with no rule changed: its false alarms "
            "bootstrapped (`bootstrap_null.md`) and a causal comparison band scored on it "
-           "(`causal_filter.md`, not shipped). The next rule change is scored on 16000.",
+           "(`causal_filter.md`, then scored blind on 16000-19000 and shipped).",
+    16000: "drawn blind at `f45f3d5` for `holdout_pooled.md` (level 1 15.1 of 16, level 2 "
+           "11.7, `none` called physics 3/24 and 1/24), then used with 17000-19000 to "
+           "score two fixed variants of the comparison band against the shipped one "
+           "(`causal_blind.md`): the causal band replaced the zero-phase one there. The "
+           "next rule change is scored on 21000.",
+    17000: "drawn with 16000 (level 1 14.8, level 2 13.6, `none` called physics 1/24 and "
+           "2/24); scored the causal band with it (`causal_blind.md`).",
+    18000: "drawn with 16000 (level 1 15.4, level 2 11.6, `none` called physics 0/24 and "
+           "5/24); scored the causal band with it (`causal_blind.md`).",
+    19000: "drawn with 16000 (level 1 15.3, level 2 11.9, `none` called physics 1/24 and "
+           "2/24); scored the causal band with it (`causal_blind.md`).",
     20000: "`slow_loops.py`'s healthy loops (seeds 20000-20023 of `none`, their speed "
            "varied); the other classes there are undrawn.",
 }

@@ -61,6 +61,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         msg = " ".join(str(exc).split())
         print(f"stictionbench: error: {msg}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except OSError as exc:  # a file that vanished or a disk that filled mid-run
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        print(f"stictionbench: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("stictionbench: interrupted", file=sys.stderr)
         return 130

@@ -190,6 +190,13 @@ def _csv_frame(p: Path, nrows: int | None = None) -> tuple[pd.DataFrame, str]:
     except pd.errors.ParserError as exc:
         raise InputError(f"{p}: not a valid CSV file ({str(exc).splitlines()[0]})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
+    # pandas renames a repeated header name X to X.1, X.2: refuse the ambiguity instead
+    # of reading one of the columns silently
+    names = set(frame.columns)
+    for c in frame.columns:
+        base, dot, num = c.rpartition(".")
+        if dot and num.isdigit() and base in names:
+            raise InputError(f"{p}: column {base!r} appears more than once in the header")
     return frame, sep
 
 

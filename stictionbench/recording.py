@@ -22,6 +22,9 @@ SIGNALS = ("SP", "PV", "OP", "MV")
 REQUIRED = ("t", "PV", "OP")
 MIN_SAMPLES = 100
 MAX_INTERPOLATED_GAP = 5
+#: largest magnitude accepted in any column: beyond it squares and variances overflow
+#: double precision (no instrument or clock records such numbers)
+MAX_MAGNITUDE = 1e100
 UNIFORM_TOLERANCE = 0.01
 
 
@@ -96,7 +99,8 @@ class Recording:
         Raises
         ------
         InputError
-            On ±inf, non-monotone or non-uniform time, fewer than 100 samples, a gap
+            On ±inf or magnitudes beyond :data:`MAX_MAGNITUDE`, non-monotone or
+            non-uniform time, fewer than 100 samples, a gap
             of missing values longer than 5 samples, or arrays of different lengths.
             Gaps of up to 5 missing samples are interpolated linearly.
         """
@@ -218,6 +222,12 @@ def _fill_missing(arrays: dict[str, np.ndarray | None], source: str,
         if bad.any():
             i = int(np.argmax(bad))
             raise InputError(f"{source}: row {i + first_row}, column {name}: infinite value")
+        with np.errstate(invalid="ignore"):
+            huge = np.abs(arr) > MAX_MAGNITUDE
+        if huge.any():
+            i = int(np.argmax(huge))
+            raise InputError(f"{source}: row {i + first_row}, column {name}: {arr[i]:g} is "
+                             f"beyond ±{MAX_MAGNITUDE:g}, not a measurement")
         missing = np.isnan(arr)
         if missing.any():
             if name == "t":

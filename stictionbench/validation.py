@@ -174,6 +174,72 @@ def refuse_overwrite(outputs: Iterable[str | os.PathLike[str] | None],
             raise InputError(f"{outs[i]}: named twice as an output")
 
 
+def check_writable(files: Iterable[str | os.PathLike[str] | None] = (),
+                   dirs: Iterable[str | os.PathLike[str] | None] = ()) -> None:
+    """Refuse, before any work, an output that cannot be written: a file output that is
+    an existing directory, a directory output that is an existing file, a path under a
+    file, or a place where no file can be created. Nothing is created: the test file
+    goes into the nearest existing ancestor and is removed at once.
+
+    Raises
+    ------
+    InputError
+        ``"<out>: cannot write there (<reason>)"`` and the like, one line.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> check_writable([d / "new" / "out.json"], [d / "report"])
+    >>> check_writable([d])
+    Traceback (most recent call last):
+    ...
+    stictionbench.errors.InputError: ...: is a directory, expected a file name
+    """
+    import tempfile
+
+    todo = [(Path(f), False) for f in files if f is not None]
+    todo += [(Path(d), True) for d in dirs if d is not None]
+    for out, is_dir in todo:
+        if out.exists():
+            if is_dir and not out.is_dir():
+                raise InputError(f"{out}: exists and is not a directory")
+            if not is_dir and out.is_dir():
+                raise InputError(f"{out}: is a directory, expected a file name")
+        anc = out if (is_dir and out.is_dir()) else out.parent
+        while not anc.exists() and anc != anc.parent:
+            anc = anc.parent
+        if not anc.is_dir():
+            raise InputError(f"{out}: {anc} is not a directory")
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=".stictionbench-probe.", dir=anc)
+        except OSError as exc:
+            raise InputError(f"{out}: cannot write there ({exc.strerror or exc})") from None
+        os.close(fd)
+        os.unlink(tmp)
+
+
+def jobs_count(text: str) -> int:
+    """``--jobs`` (an argparse ``type``): a worker count (≥ 1) or a negative count
+    joblib-style (-1: every core), capped at the machine's cores: more workers than cores
+    only wait, and a huge count would try to start that many processes.
+
+    >>> jobs_count("1")
+    1
+    """
+    import argparse
+
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if n == 0:
+        raise argparse.ArgumentTypeError("0 workers; give a count ≥ 1, or -1 for every "
+                                         "core")
+    cores = os.cpu_count() or 1
+    return min(n, cores) if n > 0 else max(cores + 1 + n, 1)
+
+
 # --------------------------------------------------------------------------- parameters
 
 

@@ -1,5 +1,6 @@
-"""The causal comparison band of ``experiments/causal_filter.py`` against the shipped
-zero-phase band: same magnitude target, but no sample depends on a later one."""
+"""The diagnosis's causal comparison band (``openloop.comparison_band``) against the
+zero-phase band it replaced (``openloop.highpass``): same magnitude target, but no sample
+depends on a later one; and how ``experiments/causal_filter.py`` sets and pairs the two."""
 
 from __future__ import annotations
 
@@ -12,25 +13,25 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
 
 import causal_filter as cf  # noqa: E402
 
-from stictionbench.diagnosis.openloop import highpass  # noqa: E402
+from stictionbench.diagnosis.openloop import comparison_band, highpass  # noqa: E402
 
 
-def test_the_causal_band_never_looks_ahead_and_the_shipped_band_does():
+def test_the_causal_band_never_looks_ahead_and_the_zero_phase_band_does():
     rng = np.random.default_rng(5)
     x = rng.normal(size=1500)
     y = x.copy()
     y[1000:] += rng.normal(size=500)  # change only the future of sample 999
     kw = dict(Ts=1.0, f_c=0.002, f_lp=0.05)
-    np.testing.assert_array_equal(cf.causal_band(x, **kw)[:1000], cf.causal_band(y, **kw)[:1000])
+    np.testing.assert_array_equal(comparison_band(x, **kw)[:1000], comparison_band(y, **kw)[:1000])
     assert np.max(np.abs(highpass(x, **kw)[:1000] - highpass(y, **kw)[:1000])) > 1e-3
 
 
 def test_the_causal_band_is_linear_column_by_column_and_removes_a_constant():
     rng = np.random.default_rng(6)
     X = rng.normal(size=(800, 3))
-    out = cf.causal_band(X, 1.0, 0.01, 0.1)
-    np.testing.assert_allclose(out[:, 1], cf.causal_band(X[:, 1], 1.0, 0.01, 0.1))
-    np.testing.assert_allclose(cf.causal_band(np.full(800, 7.0), 1.0, 0.01), 0.0)
+    out = comparison_band(X, 1.0, 0.01, 0.1)
+    np.testing.assert_allclose(out[:, 1], comparison_band(X[:, 1], 1.0, 0.01, 0.1))
+    np.testing.assert_allclose(comparison_band(np.full(800, 7.0), 1.0, 0.01), 0.0)
 
 
 def test_band_sos_is_the_butterworth_whose_magnitude_highpass_applies():
@@ -44,3 +45,33 @@ def test_band_sos_is_the_butterworth_whose_magnitude_highpass_applies():
     low = f < 0.1  # the bilinear transform's warping grows towards Nyquist
     np.testing.assert_allclose(np.abs(h[low]) ** 2, _hp_gain(m, Ts, f_c, f_lp)[low],
                                atol=0.02)
+
+
+def test_use_band_swaps_the_band_of_every_comparison_stage_and_back():
+    from stictionbench.diagnosis import diagnose as d_mod
+    from stictionbench.diagnosis import evidence, fit
+
+    try:
+        cf.use_band("zero_phase")
+        assert fit.comparison_band is evidence.comparison_band is d_mod.comparison_band \
+            is highpass
+    finally:
+        cf.use_band("causal")
+    assert fit.comparison_band is evidence.comparison_band is d_mod.comparison_band \
+        is comparison_band
+
+
+def test_side_by_side_pairs_each_recording_with_its_two_verdicts():
+    rows = []
+    for band, pick in (("zero_phase", "stiction"), ("causal", "none")):
+        rows.append({"set": "holdout", "class": "none", "level": 2, "seed": 7,
+                     "band_dof": 30.0, "band": band, "pick": pick})
+        rows.append({"set": "slow_loops", "condition": "no load", "tau": 60.0,
+                     "class": "none", "level": 1, "seed": 7, "band_dof": 20.0,
+                     "band": band, "pick": "none"})
+    df = cf.side_by_side(rows)
+    assert len(df) == 2
+    h = df[df.set == "holdout"].iloc[0]
+    assert (h.shipped, h.causal, h.band_dof) == ("stiction", "none", 30.0)
+    s = df[df.set == "slow_loops"].iloc[0]
+    assert (s.condition, s.tau, s.shipped, s.causal) == ("no load", 60.0, "none", "none")

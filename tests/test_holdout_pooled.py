@@ -17,10 +17,12 @@ import holdout_pooled as hp  # noqa: E402
 from stictionbench.diagnosis.model import NominalModel  # noqa: E402
 from stictionbench.diagnosis.openloop import fopdt_response  # noqa: E402
 
+BLIND = hp.BLIND[0]
+
 
 def _frame() -> pd.DataFrame:
     rows = []
-    for block in (1000, hp.BLIND):
+    for block in (1000, BLIND):
         for lvl in (1, 2):
             for i in range(8):
                 cls = "none" if i < 2 else "stiction"
@@ -29,7 +31,7 @@ def _frame() -> pd.DataFrame:
                 pred = cls
                 if lvl == 2 and i == 7:
                     pred = "none"
-                if lvl == 2 and i == 0 and block == hp.BLIND:
+                if lvl == 2 and i == 0 and block == BLIND:
                     pred = "deadband"
                 rows.append({"name": f"{block}_{lvl}_{i}", "class": cls, "level": lvl,
                              "seed": block + i, "predicted_default": pred,
@@ -50,14 +52,23 @@ def test_blocks_and_dof_bins_split_the_same_verdicts():
     df = _frame()
     blocks = hp.by_block(df).set_index("block")
     assert blocks.loc[1000, "level 2 of 16"] == 14.0
-    assert blocks.loc[hp.BLIND, "level 2 none called physics"] == "1/2"
-    assert blocks.loc[hp.BLIND, "status"] == "blind"
+    assert blocks.loc[BLIND, "level 2 none called physics"] == "1/2"
+    assert blocks.loc[BLIND, "status"] == "blind"
     dof = hp.by_dof(df)
     # every recording lands in exactly one bin
     assert int(dof._n.sum() + dof._nn.sum()) == len(df)
     slow = dof[(dof.level == 2) & (dof.band_dof.str.startswith("0"))].iloc[0]
     # odd i at 20 dof: i = 3, 5 named and i = 7 missed in each block; i = 1 is `none`
     assert (slow._k, slow._n, slow._nn) == (4, 6, 2)
+
+
+def test_seen_and_blind_false_alarms_are_compared_per_level():
+    lines = hp.seen_against_blind(_frame())
+    assert len(lines) == 2
+    assert "seen blocks 0/2" in lines[0] and "blind blocks 0/2" in lines[0]
+    # level 2: the blind block's one `none` called physics, none in the seen block
+    assert "seen blocks 0/2" in lines[1] and "blind blocks 1/2" in lines[1]
+    assert "Fisher p = 1" in lines[1]
 
 
 def test_the_detectability_table_leaves_none_out_and_bins_by_effect():

@@ -12,13 +12,14 @@ from ..errors import InputError
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..io import read_longest_stretch, write_text
-    from ..validation import refuse_overwrite
+    from ..validation import check_writable, refuse_overwrite
     from .diagnose import diagnose
     from .model import load_model
 
     if not args.json:
         raise InputError("diagnose needs --json OUT.json")
     refuse_overwrite([args.json, args.report], [args.recording, args.model])
+    check_writable([args.json], [args.report])
     model = load_model(args.model) if args.model else None
     rec = read_longest_stretch(args.recording)
     op_range = None
@@ -32,14 +33,18 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     payload["recording"] = str(args.recording)
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
         payload["rows"] = list(rec.meta["rows"])
+    try:  # serialised before anything is written: no report without its JSON
+        text = json.dumps(payload, indent=2, allow_nan=False, default=_safe) + "\n"
+    except ValueError:
+        raise InputError(f"{args.recording}: the diagnosis produced non-finite numbers "
+                         "(values or times too large for its arithmetic?)") from None
     if args.report:
         # the figures' plotting stack is imported only when asked for (about 0.6 s of
         # a 3000-sample diagnosis's 3 s otherwise; benchmarks/test_bench_cli.py)
         from .report import write_report
 
         write_report(d, args.report)
-    write_text(args.json, json.dumps(payload, indent=2, allow_nan=False,
-                                     default=_safe) + "\n")
+    write_text(args.json, text)
     f = d.fit
     params = ", ".join(f"{k}={v:.3g}" for k, v in d.parameters.items())
     print(f"{args.recording}: {d.missing_physics}" + (f" ({params})" if params else "")

@@ -67,7 +67,7 @@ from .locate import (
 )
 from .model import NominalModel, fit_pi, identify_pi
 from .noise import fit_noise_model
-from .openloop import highpass
+from .openloop import comparison_band
 from .process import (
     MIN_SETPOINT_EXCITATION,
     fit_fopdt,
@@ -221,9 +221,13 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
     model = _nominal_model(rec, model, hp_factor)
     n, Ts = len(rec), rec.Ts
     tau, theta = model.time_constant, model.dead_time
+    if theta >= n * Ts:
+        raise InputError(f"{rec.meta.get('source', 'recording')}: the model's dead_time "
+                         f"({theta:g} s) is longer than the recording ({n * Ts:g} s): "
+                         "nothing OP did would reach PV within it")
     f_hp = hp_factor / (2 * math.pi * (tau + theta))
     f_lp = lowpass_corner(Ts, tau, lp_factor, oscillation_frequency(
-        highpass(np.asarray(rec.PV, float), Ts, f_hp), Ts))
+        comparison_band(np.asarray(rec.PV, float), Ts, f_hp), Ts))
     burn = min(int(math.ceil((theta + 3 * tau) / Ts)), n // 5)
     edges = np.linspace(burn, n, N_BLOCKS + 1).round().astype(int)
     if edges[1] - edges[0] < 40:
@@ -281,8 +285,8 @@ def _band_for_residual_line(ctx: Context, nominal: Fit, burn: int,
 def _nominal_residual(ctx: Context, nominal: Fit) -> np.ndarray:
     """PV minus the nominal model's replay of the recorded OP, high-passed only."""
     ctx0 = replace(ctx, theta=ctx.theta + nominal.extra.get("timing_shift_s", 0.0))
-    X0 = highpass(Nominal().regressors(ctx0, np.zeros(0)), ctx.Ts, ctx.f_hp)
-    return highpass(ctx.pv, ctx.Ts, ctx.f_hp) - X0 @ nominal.beta
+    X0 = comparison_band(Nominal().regressors(ctx0, np.zeros(0)), ctx.Ts, ctx.f_hp)
+    return comparison_band(ctx.pv, ctx.Ts, ctx.f_hp) - X0 @ nominal.beta
 
 
 def locate(cmp: Comparison) -> Location:

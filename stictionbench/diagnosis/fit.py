@@ -15,7 +15,7 @@ from scipy.stats import chi2
 
 from .hypotheses import Context, Hypothesis
 from .noise import NoiseModel
-from .openloop import highpass
+from .openloop import comparison_band
 
 
 @dataclass
@@ -54,7 +54,7 @@ class Problem:
         self.ctx = ctx
         self.f_hp = f_hp
         self.f_lp = f_lp
-        self.y = highpass(ctx.pv, ctx.Ts, f_hp, f_lp)
+        self.y = comparison_band(ctx.pv, ctx.Ts, f_hp, f_lp)
         self.train = train
         self.val = val
         self.noise = noise
@@ -95,7 +95,7 @@ class Problem:
         hit = self._memo.get(key)
         if hit is not None:
             return hit
-        X = highpass(h.regressors(self.ctx, p), self.ctx.Ts, self.f_hp, self.f_lp)
+        X = comparison_band(h.regressors(self.ctx, p), self.ctx.Ts, self.f_hp, self.f_lp)
         if X.ndim == 1:
             X = X[:, None]
         Xw = X if self.noise is None else self.noise.whiten(X)

@@ -265,7 +265,9 @@ class DeadTime(Hypothesis):
         return max(3.0 * ctx.theta + 2.0 * ctx.tau, 20 * ctx.Ts)
 
     def grid(self, ctx):
-        return [np.array([v]) for v in np.arange(0.0, self._hi(ctx), ctx.Ts / 2.0)][:400]
+        # at most 400 points, half a sample apart (built only up to them)
+        hi = min(self._hi(ctx), 400 * ctx.Ts / 2.0)
+        return [np.array([v]) for v in np.arange(0.0, hi, ctx.Ts / 2.0)][:400]
 
     def bounds(self, ctx):
         return [(0.0, self._hi(ctx))]

@@ -88,6 +88,11 @@ def load_model(path: str | Path) -> NominalModel:
     for k in ("gain", "time_constant", "dead_time"):
         if k not in proc:
             raise InputError(f"{p}: missing key 'process.{k}'")
+    extra = set(proc) - {"gain", "time_constant", "dead_time"}
+    if extra:
+        raise InputError(f"{p}: unknown key(s) in process: "
+                         f"{', '.join(sorted(map(str, extra)))} (gain, time_constant, "
+                         "dead_time)")
     gain = _num(str(p), "process.gain", proc["gain"])
     if gain == 0:
         raise InputError(f"{p}: process.gain: must not be zero")
@@ -101,6 +106,10 @@ def load_model(path: str | Path) -> NominalModel:
         for k in ("kc", "ti"):
             if k not in ctrl:
                 raise InputError(f"{p}: missing key 'controller.{k}'")
+        extra = set(ctrl) - {"kc", "ti"}
+        if extra:
+            raise InputError(f"{p}: unknown key(s) in controller: "
+                             f"{', '.join(sorted(map(str, extra)))} (kc, ti)")
         kc = _num(str(p), "controller.kc", ctrl["kc"])
         ti = _num(str(p), "controller.ti", ctrl["ti"], positive=True)
     Ts = None

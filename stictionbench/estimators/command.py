@@ -82,9 +82,10 @@ def build_estimator(method: str | None, params: Sequence[str] | None,
 def cmd_estimate(args: argparse.Namespace) -> int:
     """Run ``estimate``: print a table, optionally write the result as JSON."""
     from ..io import read_longest_stretch, write_text
-    from ..validation import refuse_overwrite
+    from ..validation import check_writable, refuse_overwrite
 
     refuse_overwrite([args.json], [args.recording])
+    check_writable([args.json])
     est = build_estimator(args.method, args.param, args.overrides)
     rec = read_longest_stretch(args.recording)
     res = est.estimate(rec, x=args.x, y=args.y)

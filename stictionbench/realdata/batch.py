@@ -92,13 +92,14 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
 
 def cmd_batch(args: argparse.Namespace) -> int:
     from ..io import atomic_directory, write_text
-    from ..validation import jsonable, refuse_overwrite
+    from ..validation import check_writable, jsonable, refuse_overwrite
 
     if not args.json:
         raise InputError("batch needs --json OUT.json")
     if args.labels and not Path(args.labels).is_file():
         raise InputError(f"{args.labels}: no such labels file")
     refuse_overwrite([args.json, args.report], [args.directory, args.labels, args.consensus])
+    check_writable([args.json], [args.report])
     entries, skipped, scores = run_batch(args.directory, args.labels, jobs=args.jobs,
                                          diagnose=args.diagnose, consensus=args.consensus)
     payload = {"directory": str(args.directory), "recordings": entries,

@@ -7,6 +7,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from ..validation import jobs_count
+
 
 def _lazy(module: str, name: str):
     """The command function ``name`` of ``module``, imported when the command runs."""
@@ -47,7 +49,8 @@ def add_command(subparsers: Any) -> None:
     p.add_argument("--labels", help="labels CSV (loop, label[, group])")
     p.add_argument("--json", metavar="OUT.json")
     p.add_argument("--report", metavar="DIR")
-    p.add_argument("--jobs", type=int, default=2, help="parallel workers (default 2)")
+    p.add_argument("--jobs", type=jobs_count, default=2,
+                   help="parallel workers (default 2; -1: every core)")
     p.add_argument("--diagnose", choices=("none", "flagged", "all"), default="none",
                    help="also run the model-free diagnosis (missing_physics, fitted S and "
                         "J; seconds per recording) on none of the recordings (default: "
@@ -65,5 +68,6 @@ def add_command(subparsers: Any) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="report directory")
     p.add_argument("--consensus", metavar="OUT.yaml",
                    help="write the consensus trained on all folders here")
-    p.add_argument("--jobs", type=int, default=2, help="parallel workers (default 2)")
+    p.add_argument("--jobs", type=jobs_count, default=2,
+                   help="parallel workers (default 2; -1: every core)")
     p.set_defaults(func=_lazy("comparison", "cmd_compare"))

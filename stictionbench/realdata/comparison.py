@@ -132,11 +132,12 @@ def _damarla(isdb: pd.DataFrame, methods: list[str]) -> list[str]:
 def run_compare(dirs: list[str], out: str, consensus_out: str | None, jobs: int) -> None:
     from ..io import atomic_directory, atomic_path
     from ..reports.tables import csv_text
-    from ..validation import refuse_overwrite
+    from ..validation import check_writable, refuse_overwrite
     from .compare import METHODS, PUBLISHED, method_rates
     from .consensus import cross_dataset, fit
 
     refuse_overwrite([out, consensus_out], dirs)
+    check_writable([consensus_out], [out])
     sets, windows = {}, {}
     for d in dirs:
         name = Path(d).resolve().name

@@ -67,8 +67,11 @@ def _collect(paths: list[str]) -> tuple[list[tuple[str, Any]], list[tuple[str, s
 
 def cmd_screen(args: argparse.Namespace) -> int:
     from ..io import write_text
+    from ..validation import check_writable, refuse_overwrite
     from .quality import screen
 
+    refuse_overwrite([args.json], args.paths)
+    check_writable([args.json])
     recs, skipped = _collect(args.paths)
     if not recs and not skipped:
         raise InputError("no CSV, Parquet or .mat files found in " + ", ".join(args.paths))

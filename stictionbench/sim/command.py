@@ -46,6 +46,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise InputError("simulate needs out=PATH.csv or out=PATH.parquet")
     if Path(out).suffix.lower() not in (".csv", ".parquet"):
         raise InputError(f"out={out}: use a .csv or .parquet file")
+    from ..validation import check_writable
+
+    check_writable([out])
     case = special.get("case", "stiction")
     if "duration" in special:
         d = number("duration", special["duration"], low=0.0, strict=True)

@@ -1,0 +1,126 @@
+"""Output paths and out-of-range input across the commands: one line, exit 2, nothing
+written (found by fuzzing the command line: unwritable paths, an output that is the
+input, magnitudes no measurement has, worker counts that mean nothing)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stictionbench.cli import main
+from stictionbench.diagnosis.hypotheses import DeadTime
+
+
+def _recording(path: Path, scale_pv: float = 1.0, n: int = 300) -> Path:
+    rng = np.random.default_rng(0)
+    t = np.arange(n, dtype=float)
+    op = 50 + 5 * np.sign(np.sin(2 * np.pi * t / 60)) + 0.1 * rng.standard_normal(n)
+    pv = np.zeros(n)
+    for k in range(1, n):
+        pv[k] = 0.9 * pv[k - 1] + 0.1 * (op[k - 1] - 50)
+    pv = scale_pv * (pv + 0.05 * rng.standard_normal(n))
+    lines = ["t,PV,OP"] + [f"{a:g},{float(b)!r},{float(c)!r}"
+                          for a, b, c in zip(t, pv, op, strict=True)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _one_line_exit_2(capsys, argv: list[str]) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("stictionbench: error:"), err
+    return err[0]
+
+
+def test_json_into_an_existing_directory_is_refused_before_any_report(tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv")
+    (tmp_path / "out").mkdir()
+    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--json", str(tmp_path / "out"),
+                                    "--report", str(tmp_path / "rep")])
+    assert "is a directory" in msg
+    assert not (tmp_path / "rep").exists()
+
+
+def test_an_output_under_a_file_is_refused(tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv")
+    (tmp_path / "afile").write_text("x")
+    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--json",
+                                    str(tmp_path / "afile" / "o.json")])
+    assert "not a directory" in msg
+    assert (tmp_path / "afile").read_text() == "x"
+
+
+def test_a_report_directory_that_is_a_file_is_refused(tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv")
+    (tmp_path / "rep").write_text("x")
+    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--json", str(tmp_path / "o.json"),
+                                    "--report", str(tmp_path / "rep")])
+    assert "not a directory" in msg
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_screen_refuses_to_overwrite_its_input(tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv")
+    before = rec.read_text()
+    msg = _one_line_exit_2(capsys, ["screen", str(rec), "--json", str(rec)])
+    assert "refusing to overwrite" in msg
+    assert rec.read_text() == before
+
+
+@pytest.mark.parametrize("jobs", ["0", "-0", "x"])
+def test_batch_refuses_a_meaningless_worker_count(tmp_path, capsys, jobs):
+    _recording(tmp_path / "rec.csv")
+    msg = _one_line_exit_2(capsys, ["batch", str(tmp_path), "--json",
+                                    str(tmp_path / "o.json"), "--jobs", jobs])
+    assert "--jobs" in msg
+
+
+def test_magnitudes_no_measurement_has_are_refused_with_their_row(tmp_path, capsys):
+    rec = _recording(tmp_path / "huge.csv", scale_pv=1e300)
+    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--json", str(tmp_path / "o.json")])
+    assert "column PV" in msg and "row" in msg
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_dead_time_grid_does_not_build_past_its_400_points():
+    class Ctx:
+        theta, tau, Ts = 1e9, 10.0, 1.0
+
+    grid = DeadTime().grid(Ctx())
+    assert len(grid) == 400 and float(grid[-1][0]) == pytest.approx(199.5)
+
+
+def test_a_model_dead_time_longer_than_the_recording_is_refused(tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv")
+    model = tmp_path / "m.yaml"
+    model.write_text("process: {gain: 0.5, time_constant: 10.0, dead_time: 1.0e9}\n"
+                     "controller: {kc: 0.2, ti: 10.0}\nsample_time: 1.0\n")
+    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--model", str(model), "--json",
+                                    str(tmp_path / "o.json")])
+    assert "dead_time" in msg and "longer than the recording" in msg
+
+
+def test_a_repeated_column_name_is_refused(tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv")
+    text = rec.read_text().splitlines()
+    dup = tmp_path / "dup.csv"
+    dup.write_text("\n".join([text[0] + ",PV"] + [r + ",0" for r in text[1:]]) + "\n")
+    msg = _one_line_exit_2(capsys, ["diagnose", str(dup), "--json", str(tmp_path / "o.json")])
+    assert "'PV' appears more than once" in msg
+
+
+@pytest.mark.parametrize("section", ["process", "controller"])
+def test_an_unknown_key_inside_a_model_section_is_refused(tmp_path, capsys, section):
+    rec = _recording(tmp_path / "rec.csv")
+    proc = "{gain: 0.5, time_constant: 10.0, dead_time: 1.0%s}"
+    ctrl = "{kc: 0.2, ti: 10.0%s}"
+    extra = ", zeta: 2"
+    model = tmp_path / "m.yaml"
+    model.write_text(f"process: {proc % (extra if section == 'process' else '')}\n"
+                     f"controller: {ctrl % (extra if section == 'controller' else '')}\n"
+                     "sample_time: 1.0\n")
+    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--model", str(model), "--json",
+                                    str(tmp_path / "o.json")])
+    assert f"unknown key(s) in {section}: zeta" in msg
