@@ -17,8 +17,9 @@ fewer ``none`` recordings called physics (levels pooled) **and** level 2 named c
 (of 16, ``none`` included) not lower than the shipped band's. Whatever the result, the
 package is not changed by this script; a change it prompts is scored on blocks drawn
 after it (``holdout_family.SEEN_FRESH``). The criterion was met, and the causal band at
-the shipped thresholds became the package's comparison band
-(:func:`stictionbench.diagnosis.openloop.comparison_band`).
+the shipped thresholds became the package's comparison band against a given model
+(:func:`stictionbench.diagnosis.openloop.comparison_band`, chosen by
+:func:`stictionbench.diagnosis.evidence.band_of`; these recordings all come with one).
 
 Run: ``.venv/bin/python experiments/causal_blind.py [--jobs 2]`` (about 40 min on 2
 cores). Outputs ``reports/concealed/causal_blind.{md,csv}``.
@@ -98,7 +99,7 @@ def report(df: pd.DataFrame) -> str:
         "Against the criterion stated before the run (fewer false alarms and level 2 not "
         f"lower): **{'met' if better else 'not met'}** by the causal band at the shipped "
         "thresholds. The criterion is what made the causal band the package's comparison "
-        "band; this table is how it was scored.",
+        "band against a given model; this table is how it was scored.",
         ""]
     return "\n".join(lines)
 

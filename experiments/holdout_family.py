@@ -219,14 +219,24 @@ SEEN_FRESH = {
     16000: "drawn blind at `f45f3d5` for `holdout_pooled.md` (level 1 15.1 of 16, level 2 "
            "11.7, `none` called physics 3/24 and 1/24), then used with 17000-19000 to "
            "score two fixed variants of the comparison band against the shipped one "
-           "(`causal_blind.md`): the causal band replaced the zero-phase one there. The "
-           "next rule change is scored on 21000.",
+           "(`causal_blind.md`): the causal band replaced the zero-phase one there, against "
+           "a given model.",
     17000: "drawn with 16000 (level 1 14.8, level 2 13.6, `none` called physics 1/24 and "
            "2/24); scored the causal band with it (`causal_blind.md`).",
     18000: "drawn with 16000 (level 1 15.4, level 2 11.6, `none` called physics 0/24 and "
            "5/24); scored the causal band with it (`causal_blind.md`).",
     19000: "drawn with 16000 (level 1 15.3, level 2 11.9, `none` called physics 1/24 and "
            "2/24); scored the causal band with it (`causal_blind.md`).",
+    21000: "drawn blind after the causal comparison band (make concealed's "
+           "`holdout_fresh.md`, and `holdout_pooled.md` with 22000-24000): level 1 15.0 of "
+           "16, level 2 12.4, `none` called physics 2/24 and 1/24. No rule changed after; "
+           "the next rule change is scored on 25000.",
+    22000: "drawn with 21000 for `holdout_pooled.md` (level 1 15.3, level 2 12.3, `none` "
+           "called physics 1/24 and 0/24); no rule changed after.",
+    23000: "drawn with 21000 (level 1 15.6, level 2 11.4, `none` called physics 0/24 and "
+           "1/24); no rule changed after.",
+    24000: "drawn with 21000 (level 1 15.1, level 2 11.7, `none` called physics 1/24 and "
+           "0/24); no rule changed after.",
     20000: "`slow_loops.py`'s healthy loops (seeds 20000-20023 of `none`, their speed "
            "varied); the other classes there are undrawn.",
 }

@@ -75,3 +75,17 @@ def test_side_by_side_pairs_each_recording_with_its_two_verdicts():
     assert (h.shipped, h.causal, h.band_dof) == ("stiction", "none", 30.0)
     s = df[df.set == "slow_loops"].iloc[0]
     assert (s.condition, s.tau, s.shipped, s.causal) == ("no load", 60.0, "none", "none")
+
+
+def test_a_corner_above_nyquist_is_held_below_it():
+    # a loop fast against its sampling: f_hp = 0.3 / (2π·1 s) at Ts = 10 s is above 0.05 Hz
+    x = np.random.default_rng(7).normal(size=500)
+    y = comparison_band(x, 10.0, 0.3 / (2 * np.pi), 0.2)
+    assert np.all(np.isfinite(y)) and 0 < np.std(y) < np.std(x)
+
+
+def test_the_causal_band_is_used_against_a_given_model_only():
+    from stictionbench.diagnosis.evidence import band_of
+
+    assert band_of(True) is comparison_band
+    assert band_of(False) is highpass

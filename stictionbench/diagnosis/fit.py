@@ -15,7 +15,7 @@ from scipy.stats import chi2
 
 from .hypotheses import Context, Hypothesis
 from .noise import NoiseModel
-from .openloop import comparison_band
+from .openloop import comparison_band, highpass
 
 
 @dataclass
@@ -54,7 +54,9 @@ class Problem:
         self.ctx = ctx
         self.f_hp = f_hp
         self.f_lp = f_lp
-        self.y = comparison_band(ctx.pv, ctx.Ts, f_hp, f_lp)
+        # the comparison band: causal against a given model (evidence.band_of)
+        self.band = comparison_band if ctx.model_given else highpass
+        self.y = self.band(ctx.pv, ctx.Ts, f_hp, f_lp)
         self.train = train
         self.val = val
         self.noise = noise
@@ -95,7 +97,7 @@ class Problem:
         hit = self._memo.get(key)
         if hit is not None:
             return hit
-        X = comparison_band(h.regressors(self.ctx, p), self.ctx.Ts, self.f_hp, self.f_lp)
+        X = self.band(h.regressors(self.ctx, p), self.ctx.Ts, self.f_hp, self.f_lp)
         if X.ndim == 1:
             X = X[:, None]
         Xw = X if self.noise is None else self.noise.whiten(X)

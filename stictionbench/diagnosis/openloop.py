@@ -214,7 +214,10 @@ def _band_sos(Ts: float, f_c: float, f_lp: float | None) -> np.ndarray:
     from scipy.signal import butter
 
     fs = 1.0 / Ts
-    sos = butter(2, f_c, btype="highpass", fs=fs, output="sos")
+    # a corner at or above Nyquist (a loop fast against its sampling) is held just below
+    # it, where the design exists: the band then passes little, as the magnitude
+    # |H|² = (f/f_c)⁴/(1 + (f/f_c)⁴) of :func:`highpass` does there
+    sos = butter(2, min(f_c, 0.499 * fs), btype="highpass", fs=fs, output="sos")
     if f_lp:
         sos = np.vstack([sos, butter(2, min(f_lp, 0.499 * fs), btype="lowpass",
                                      fs=fs, output="sos")])
@@ -237,8 +240,12 @@ def comparison_band(x: np.ndarray, Ts: float, f_c: float | None,
     *System Identification*, 1999, ch. 13.4) — no longer holds. Varied alone on the
     holdout family (``experiments/causal_filter.py``, ``experiments/causal_blind.py``):
     the zero-phase band called 15/192 healthy loops physics on blocks neither band had
-    seen, the causal band 5/192, at the same level-2 score. Linear and the same operator
-    for PV and every regressor, so least-squares fits stay exact.
+    seen, the causal band 5/192, at the same level-2 score. Used against a given model
+    only (:func:`.evidence.band_of`): without one it named physics on more ideal valves,
+    and the model-free diagnosis keeps :func:`highpass`. Its cost with a model: on
+    regulatory loops (constant set point) more non-sticky loops are called sticky
+    (``reports/diagnose/limit_cycles.md``). Linear and the same operator for PV
+    and every regressor, so least-squares fits stay exact.
 
     Examples
     --------
