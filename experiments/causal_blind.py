@@ -19,7 +19,7 @@ package is not changed by this script; a change it prompts is scored on blocks d
 after it (``holdout_family.SEEN_FRESH``). The criterion was met, and the causal band at
 the shipped thresholds became the package's comparison band against a given model
 (:func:`stictionbench.diagnosis.openloop.comparison_band`, chosen by
-:func:`stictionbench.diagnosis.evidence.band_of`; these recordings all come with one).
+:func:`stictionbench.diagnosis.openloop.band_of`; these recordings all come with one).
 
 Run: ``.venv/bin/python experiments/causal_blind.py [--jobs 2]`` (about 40 min on 2
 cores). Outputs ``reports/concealed/causal_blind.{md,csv}``.
@@ -39,7 +39,6 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import holdout_family as hf  # noqa: E402
 from causal_filter import BANDS, holdout_case, side_by_side  # noqa: E402
-from concealed import picks  # noqa: E402
 from holdout_pooled import per16  # noqa: E402
 
 from stictionbench.io import atomic_path, write_text  # noqa: E402
@@ -116,14 +115,7 @@ def main(argv=None) -> int:
             for s in range(b, b + (24 if c == "none" else 12))]
     rows = list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator_unordered")(todo),
                      total=len(todo), desc="diagnose (both bands)"))
-    causal = sorted((r for r in rows if r["band"] == "causal"),
-                    key=lambda r: (r["class"], r["level"], r["seed"]))
-    again = picks(pd.DataFrame([r["_row"] for r in causal]), *RETUNED)
-    df = side_by_side(rows).merge(
-        pd.DataFrame([{"class": r["class"], "level": r["level"], "seed": r["seed"],
-                       "retuned": p} for r, p in zip(causal, again, strict=True)]),
-        on=["class", "level", "seed"], how="left", validate="one_to_one")
-    df = df.sort_values(["class", "level", "seed"], ignore_index=True)
+    df = side_by_side(rows, RETUNED).sort_values(["class", "level", "seed"], ignore_index=True)
     with atomic_path(OUT / "causal_blind.csv") as tmp:
         df[["class", "level", "seed", "band_dof", "shipped", "causal", "retuned"]].to_csv(
             tmp, index=False, lineterminator="\n", float_format="%.6g")

@@ -66,11 +66,11 @@ BANDS = {"zero_phase": highpass, "causal": comparison_band}
 
 
 def use_band(band: str) -> None:
-    """Make ``band`` (:data:`BANDS`) the diagnosis's comparison band in this process."""
-    from stictionbench.diagnosis import diagnose as d_mod
-    from stictionbench.diagnosis import evidence, fit
+    """Make ``band`` (:data:`BANDS`) the diagnosis's comparison band against a given model
+    in this process (``openloop.band_of`` reads ``openloop.comparison_band``)."""
+    from stictionbench.diagnosis import openloop
 
-    fit.comparison_band = evidence.comparison_band = d_mod.comparison_band = BANDS[band]
+    openloop.comparison_band = BANDS[band]
 
 
 def holdout_case(cls: str, level: int, seed: int, band: str = "causal") -> dict:
@@ -93,16 +93,6 @@ def family_case(family: str, cls: str, level: int, seed: int) -> dict:
         return run_one(generate(cls, level, seed, Path(tmp), family))
 
 
-def retuned(fam: pd.DataFrame, hold: pd.DataFrame) -> tuple[tuple[float, float], pd.Series]:
-    """Thresholds set again on the three families' causal evidence
-    (:func:`concealed.tune`, the shipped tuning rule) and the holdout's causal evidence
-    re-decided at them (:func:`concealed.decide`)."""
-    from concealed import picks, tune
-
-    th = tune(fam)
-    return th, picks(hold, *th)
-
-
 def slow_case(cond: str, tau: float, level: int, seed: int, band: str = "causal") -> dict:
     """One of ``slow_loops.py``'s healthy loops diagnosed with ``band``."""
     import slow_loops as sl
@@ -120,20 +110,29 @@ def slow_case(cond: str, tau: float, level: int, seed: int, band: str = "causal"
 KEYS = ["set", "condition", "tau", "class", "level", "seed"]
 
 
-def side_by_side(rows: list[dict]) -> pd.DataFrame:
+def side_by_side(rows: list[dict], th: tuple[float, float] | None = None) -> pd.DataFrame:
     """One row per recording: its verdict with the zero-phase band (column ``shipped``,
     the band shipped when this comparison was made) and with the causal band
-    (``causal``)."""
+    (``causal``); with thresholds ``th`` (alpha, NRMSE gate) also the causal evidence
+    re-decided at them (``retuned``, :func:`concealed.picks`)."""
     df = pd.DataFrame([{k: v for k, v in r.items() if k != "_row"} for r in rows])
+    if th is not None:
+        from concealed import picks
+
+        causal = [i for i, r in enumerate(rows) if r["band"] == "causal"]
+        df.loc[causal, "retuned"] = picks(
+            pd.DataFrame([rows[i]["_row"] for i in causal]), *th).to_numpy()
     for k in ("condition", "tau"):
         if k not in df:
             df[k] = np.nan
     df[["condition", "tau"]] = df[["condition", "tau"]].astype(object).where(
         df[["condition", "tau"]].notna(), "")
     wide = df.pivot_table(index=KEYS, columns="band", values="pick", aggfunc="first")
-    dof = df[df.band == "causal"].set_index(KEYS)["band_dof"]
-    out = wide.rename(columns={"zero_phase": "shipped"}).join(dof).reset_index()
+    extra = [c for c in ("band_dof", "retuned") if c in df]
+    own = df[df.band == "causal"].set_index(KEYS)[extra]
+    out = wide.rename(columns={"zero_phase": "shipped"}).join(own).reset_index()
     out.columns.name = None
+    out[["condition", "tau"]] = out[["condition", "tau"]].replace("", np.nan)
     return out
 
 
@@ -247,16 +246,12 @@ def main(argv=None) -> int:
         fam_todo), total=len(fam_todo), desc="families")))
     rows = list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator_unordered")(todo),
                      total=len(todo), desc="diagnose"))
-    causal = sorted((r for r in rows if r["band"] == "causal"),
-                    key=lambda r: tuple(str(r.get(k, "")) for k in KEYS))
-    th, again = retuned(fam, pd.DataFrame([r["_row"] for r in causal]))
-    df = side_by_side(rows).merge(
-        pd.DataFrame([{**{k: r.get(k, "") for k in KEYS}, "retuned": p}
-                      for r, p in zip(causal, again, strict=True)]),
-        on=KEYS, how="left", validate="one_to_one")
-    df[["condition", "tau"]] = df[["condition", "tau"]].replace("", np.nan)
-    df = df.sort_values(["set", "condition", "tau", "class", "level", "seed"],
-                        na_position="first", ignore_index=True)
+    from concealed import tune
+
+    th = tune(fam)  # the shipped tuning rule on the three families' causal evidence
+    df = side_by_side(rows, th).sort_values(
+        ["set", "condition", "tau", "class", "level", "seed"], na_position="first",
+        ignore_index=True)
     with atomic_path(OUT / "causal_filter.csv") as tmp:
         df.to_csv(tmp, index=False, lineterminator="\n", float_format="%.6g")
     text = report(df, th)

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
 
@@ -47,18 +48,16 @@ def test_band_sos_is_the_butterworth_whose_magnitude_highpass_applies():
                                atol=0.02)
 
 
-def test_use_band_swaps_the_band_of_every_comparison_stage_and_back():
-    from stictionbench.diagnosis import diagnose as d_mod
-    from stictionbench.diagnosis import evidence, fit
+def test_use_band_swaps_the_band_every_comparison_stage_takes_and_back():
+    from stictionbench.diagnosis import openloop
 
     try:
         cf.use_band("zero_phase")
-        assert fit.comparison_band is evidence.comparison_band is d_mod.comparison_band \
-            is highpass
+        assert openloop.band_of(True) is highpass
     finally:
         cf.use_band("causal")
-    assert fit.comparison_band is evidence.comparison_band is d_mod.comparison_band \
-        is comparison_band
+    assert openloop.band_of(True) is comparison_band
+    assert openloop.band_of(False) is highpass
 
 
 def test_side_by_side_pairs_each_recording_with_its_two_verdicts():
@@ -85,7 +84,23 @@ def test_a_corner_above_nyquist_is_held_below_it():
 
 
 def test_the_causal_band_is_used_against_a_given_model_only():
-    from stictionbench.diagnosis.evidence import band_of
+    from stictionbench.diagnosis.openloop import band_of
 
     assert band_of(True) is comparison_band
     assert band_of(False) is highpass
+
+
+def test_side_by_side_re_decides_the_causal_evidence_at_other_thresholds():
+    from concealed import picks
+
+    ev = pd.read_csv(Path(__file__).resolve().parents[1] / "reports" / "concealed"
+                     / "results.csv").head(6)
+    rows = []
+    for i, r in ev.iterrows():
+        for band in ("zero_phase", "causal"):
+            rows.append({"set": "holdout", "class": r["class"], "level": int(r["level"]),
+                         "seed": i, "band_dof": 50.0, "band": band,
+                         "pick": r["predicted_default"], "_row": r})
+    df = cf.side_by_side(rows, (0.1, 0.1)).sort_values("seed")
+    assert list(df.retuned) == list(picks(ev, 0.1, 0.1))
+    assert df.shipped.notna().all() and df.causal.notna().all()

@@ -67,7 +67,7 @@ from .locate import (
 )
 from .model import NominalModel, fit_pi, identify_pi
 from .noise import fit_noise_model
-from .openloop import comparison_band, highpass
+from .openloop import band_of
 from .process import (
     MIN_SETPOINT_EXCITATION,
     fit_fopdt,
@@ -226,7 +226,7 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
                          f"({theta:g} s) is longer than the recording ({n * Ts:g} s): "
                          "nothing OP did would reach PV within it")
     f_hp = hp_factor / (2 * math.pi * (tau + theta))
-    band = comparison_band if model.source == "given" else highpass  # evidence.band_of
+    band = band_of(model.source == "given")
     f_lp = lowpass_corner(Ts, tau, lp_factor, oscillation_frequency(
         band(np.asarray(rec.PV, float), Ts, f_hp), Ts))
     burn = min(int(math.ceil((theta + 3 * tau) / Ts)), n // 5)
@@ -286,7 +286,7 @@ def _band_for_residual_line(ctx: Context, nominal: Fit, burn: int,
 def _nominal_residual(ctx: Context, nominal: Fit) -> np.ndarray:
     """PV minus the nominal model's replay of the recorded OP, high-passed only."""
     ctx0 = replace(ctx, theta=ctx.theta + nominal.extra.get("timing_shift_s", 0.0))
-    band = comparison_band if ctx.model_given else highpass  # evidence.band_of
+    band = band_of(ctx.model_given)
     X0 = band(Nominal().regressors(ctx0, np.zeros(0)), ctx.Ts, ctx.f_hp)
     return band(ctx.pv, ctx.Ts, ctx.f_hp) - X0 @ nominal.beta
 

@@ -61,7 +61,7 @@ from .cycle import CycleCheck
 from .fit import Fit
 from .hypotheses import HYPOTHESES, Nominal
 from .noise import NoiseModel, fit_noise_model, input_independence, ljung_box, lr_test
-from .openloop import comparison_band, highpass
+from .openloop import band_of
 
 #: test level of the likelihood-ratio tests (and of the slip-jump interval) and the least
 #: relative improvement of the validation NRMSE, from the tuning rule of the three-family
@@ -125,16 +125,6 @@ class Verdict:
     variances: dict[str, dict[str, float]] = field(default_factory=dict)
     #: the hypotheses judged by their own resolution in this verdict (:func:`passes`)
     own_resolution: frozenset[str] = OWN_RESOLUTION
-
-
-def band_of(model_given: bool):
-    """The comparison band: causal (:func:`.openloop.comparison_band`) against a given
-    model, the zero-phase :func:`.openloop.highpass` without one. The causal band was
-    scored blind with a model (``experiments/causal_blind.py``); applied without one it
-    named physics on more ideal valves (``reports/diagnose/fast_loops.md``: 9 → 17 of
-    42) and stiction on fewer ISDB loops (3 → 2 of 10), so the model-free diagnosis keeps
-    the zero-phase band (those numbers are in-sample for this choice)."""
-    return comparison_band if model_given else highpass
 
 
 def output_error(fit: Fit, pv: np.ndarray, Ts: float, f_hp: float) -> np.ndarray:

@@ -15,7 +15,7 @@ from scipy.stats import chi2
 
 from .hypotheses import Context, Hypothesis
 from .noise import NoiseModel
-from .openloop import comparison_band, highpass
+from .openloop import band_of
 
 
 @dataclass
@@ -54,8 +54,7 @@ class Problem:
         self.ctx = ctx
         self.f_hp = f_hp
         self.f_lp = f_lp
-        # the comparison band: causal against a given model (evidence.band_of)
-        self.band = comparison_band if ctx.model_given else highpass
+        self.band = band_of(ctx.model_given)
         self.y = self.band(ctx.pv, ctx.Ts, f_hp, f_lp)
         self.train = train
         self.val = val

@@ -241,7 +241,7 @@ def comparison_band(x: np.ndarray, Ts: float, f_c: float | None,
     holdout family (``experiments/causal_filter.py``, ``experiments/causal_blind.py``):
     the zero-phase band called 15/192 healthy loops physics on blocks neither band had
     seen, the causal band 5/192, at the same level-2 score. Used against a given model
-    only (:func:`.evidence.band_of`): without one it named physics on more ideal valves,
+    only (:func:`band_of`): without one it named physics on more ideal valves,
     and the model-free diagnosis keeps :func:`highpass`. Its cost with a model: on
     regulatory loops (constant set point) more non-sticky loops are called sticky
     (``reports/diagnose/limit_cycles.md``). Linear and the same operator for PV
@@ -261,6 +261,22 @@ def comparison_band(x: np.ndarray, Ts: float, f_c: float | None,
     from scipy.signal import sosfilt
 
     return sosfilt(band_sos(Ts, f_c, f_lp), x - x[0], axis=0)
+
+
+def band_of(model_given: bool):
+    """The band the diagnosis compares hypotheses in: :func:`comparison_band` (causal)
+    against a given model, the zero-phase :func:`highpass` without one. The causal band
+    was scored blind with a model (``experiments/causal_blind.py``); applied without one
+    it named physics on more ideal valves (``reports/diagnose/fast_loops.md``: 9 → 17 of
+    42) and stiction on fewer ISDB loops (3 → 2 of 10), so the model-free diagnosis keeps
+    the zero-phase band (those numbers are in-sample for this choice). Every comparison
+    stage (``fit``, ``evidence``, ``diagnose``) takes its band from here, so an experiment
+    swaps the with-model band by rebinding ``openloop.comparison_band``.
+
+    >>> band_of(False) is highpass
+    True
+    """
+    return comparison_band if model_given else highpass
 
 
 def highpass(x: np.ndarray, Ts: float, f_c: float | None,
