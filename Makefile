@@ -84,14 +84,16 @@ concealed: venv
 	$(BIN)/python experiments/stiction_controller_rate.py
 	$(BIN)/python experiments/verdict_stability.py --trim 7 --jobs 2
 
-# the holdout family pooled over its seed blocks at the current comparison band (8 x 216
+# the holdout family pooled over its seed blocks at the current comparison band (10 x 216
 # recordings, re-run by the shipped code; block CSVs cached in .cache/holdout_blocks), then
-# the closed-loop parametric bootstrap of its false alarms and the comparison band's
-# phase varied alone, both bands run (about 90 minutes on 2 cores)
+# the closed-loop parametric bootstrap of its false alarms, the comparison band's filter
+# varied (zero-phase against causal) and its magnitude varied apart from its phase
+# (about 105 minutes on 2 cores)
 holdout-pooled: venv
 	$(BIN)/python experiments/holdout_pooled.py --jobs 2
 	$(BIN)/python experiments/bootstrap_null.py --jobs 2
 	$(BIN)/python experiments/causal_filter.py --jobs 2
+	$(BIN)/python experiments/band_magnitude.py --jobs 2
 
 lint: venv
 	$(BIN)/ruff check stictionbench tests benchmarks experiments

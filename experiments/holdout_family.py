@@ -237,6 +237,12 @@ SEEN_FRESH = {
            "1/24); no rule changed after.",
     24000: "drawn with 21000 (level 1 15.1, level 2 11.7, `none` called physics 1/24 and "
            "0/24); no rule changed after.",
+    25000: "drawn with 26000 for `band_magnitude.py`, which scored a causal band of the "
+           "zero-phase band's magnitude against the shipped causal band and the zero-phase "
+           "band by a criterion stated before the run (not met); with the shipped band: "
+           "level 2 of 16 12.8 over both blocks, `none` called physics 5/96. No rule "
+           "changed after; the next rule change is scored on 27000.",
+    26000: "drawn with 25000 for `band_magnitude.py` (see 25000); no rule changed after.",
     20000: "`slow_loops.py`'s healthy loops (seeds 20000-20023 of `none`, their speed "
            "varied); the other classes there are undrawn.",
 }
