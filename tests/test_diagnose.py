@@ -416,6 +416,23 @@ def test_json_adds_noise_model_and_tests():
     assert js["tests"]["independence_from_op"]["p_value"] > 0.01
 
 
+def test_ljung_box_is_statsmodels_statistic_by_fft():
+    from statsmodels.stats.diagnostic import acorr_ljungbox
+
+    rng = np.random.default_rng(11)
+    for x, lags in ((rng.normal(size=3000), 20), (lfilter([1.0], [1.0, -0.5],
+                                                          rng.normal(size=500)), 20),
+                    (rng.normal(size=60), 20)):
+        ours = ljung_box(x, lags)
+        h = ours["lags"]
+        tab = acorr_ljungbox(x, lags=[h])
+        assert h == min(lags, x.size // 5)
+        assert ours["statistic"] == pytest.approx(float(tab["lb_stat"].iloc[0]), rel=1e-9)
+        assert ours["p_value"] == pytest.approx(float(tab["lb_pvalue"].iloc[0]), rel=1e-7,
+                                                abs=1e-300)
+    assert ljung_box(lfilter([1.0], [1.0, -0.5], rng.normal(size=500)))["p_value"] < 1e-6
+
+
 def test_noise_model_recovers_ar_and_integration():
     rng = np.random.default_rng(0)
     e = rng.normal(size=4000)

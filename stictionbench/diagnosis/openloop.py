@@ -237,15 +237,17 @@ def comparison_band(x: np.ndarray, Ts: float, f_c: float | None,
     its future as well, so a filtered model output built from OP can correlate with the
     filtered noise, and the prediction-error argument for closed-loop consistency — the
     direct approach, which needs the noise to be unpredictable from past inputs (Ljung,
-    *System Identification*, 1999, ch. 13.4) — no longer holds. Varied alone on the
-    holdout family (``experiments/causal_filter.py``, ``experiments/causal_blind.py``):
-    the zero-phase band called 15/192 healthy loops physics on blocks neither band had
-    seen, the causal band 5/192, at the same level-2 score. Used against a given model
-    only (:func:`band_of`): without one it named physics on more ideal valves,
-    and the model-free diagnosis keeps :func:`highpass`. Its cost with a model: on
-    regulatory loops (constant set point) more non-sticky loops are called sticky
-    (``reports/diagnose/limit_cycles.md``). Linear and the same operator for PV
-    and every regressor, so least-squares fits stay exact.
+    *System Identification*, 1999, ch. 13.4) — no longer holds. Run forwards once, the
+    sections have magnitude ``|H|`` where :func:`highpass` applies ``|H|²``, so this band
+    also passes more slow load. Scored on the holdout family against the zero-phase band
+    on blocks neither had seen (``experiments/causal_blind.py``): healthy loops called
+    physics 5/192 against 15/192 at the same level-2 score, which shipped it; on the
+    blocks drawn since (``experiments/band_magnitude.py``) 5/96 against 3/96, pooled
+    10/288 against 18/288 (Fisher p 0.17): a reason, not an established effect. A causal
+    band of magnitude ``|H|²`` did not do better there. Used against a given model only
+    (:func:`band_of`): without one it named physics on more ideal valves, and the
+    model-free diagnosis keeps :func:`highpass`. Linear and the same operator for PV and
+    every regressor, so least-squares fits stay exact.
 
     Examples
     --------
