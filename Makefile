@@ -91,6 +91,7 @@ concealed: venv
 # (about 105 minutes on 2 cores)
 holdout-pooled: venv
 	$(BIN)/python experiments/holdout_pooled.py --jobs 2
+	$(BIN)/python experiments/slip_jump_calibration.py
 	$(BIN)/python experiments/bootstrap_null.py --jobs 2
 	$(BIN)/python experiments/causal_filter.py --jobs 2
 	$(BIN)/python experiments/band_magnitude.py --jobs 2

@@ -59,7 +59,7 @@ DOF_BINS = (0.0, 25.0, 35.0, 60.0, 100.0, 200.0, np.inf)
 #: effect-size bins (the family's effect: 0.4–1 at level 1, 0–0.5 at level 2)
 EFFECT_BINS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0)
 KEEP = ["name", "class", "level", "seed", "effect", "noise_frac", "predicted_default",
-        "band_dof", "valve_model"]
+        "band_dof", "valve_model", "slip_jump_p"]
 
 
 def block(first: int, cache: Path, jobs: int) -> pd.DataFrame:
