@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from collections.abc import Sequence
 from importlib import import_module
 
-from .errors import InputError
+from .errors import InputError, held_warnings
 
 EXIT_BAD_INPUT = 2
 
@@ -51,23 +52,36 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``stictionbench`` console script."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    held: list[str] = []
     try:
-        # the sub-command is the first argument (the top level has no options of its
-        # own but --help, which lists every sub-command)
-        parser = build_parser(argv[0] if argv else None)
-        args = parser.parse_args(argv)
-        return int(args.func(args) or 0)
+        # numerical warnings of numpy/scipy on extreme but accepted data are not the
+        # user's business on the command line (one line per message is); the package's
+        # own warnings are held and printed after the result (:func:`.errors.warn`)
+        with warnings.catch_warnings(), held_warnings() as held:
+            warnings.simplefilter("ignore", RuntimeWarning)  # numpy's ComplexWarning too
+            # the sub-command is the first argument (the top level has no options of its
+            # own but --help, which lists every sub-command)
+            parser = build_parser(argv[0] if argv else None)
+            args = parser.parse_args(argv)
+            code = int(args.func(args) or 0)
+        for w in held:
+            print(f"stictionbench: warning: {w}", file=sys.stderr)
+        return code
     except InputError as exc:
-        msg = " ".join(str(exc).split())
-        print(f"stictionbench: error: {msg}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        return _error(" ".join(str(exc).split()), held)
     except OSError as exc:  # a file that vanished or a disk that filled mid-run
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-        print(f"stictionbench: error: {where}{exc.strerror or exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        return _error(f"{where}{exc.strerror or exc}", held)
     except KeyboardInterrupt:
         print("stictionbench: interrupted", file=sys.stderr)
         return 130
+
+
+def _error(msg: str, held: list[str]) -> int:
+    """The one error line, with the warnings the command had given before it failed."""
+    after = f" (after: {'; '.join(held)})" if held else ""
+    print(f"stictionbench: error: {msg}{after}", file=sys.stderr)
+    return EXIT_BAD_INPUT
 
 
 if __name__ == "__main__":  # pragma: no cover

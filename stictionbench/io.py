@@ -10,7 +10,6 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
-import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -19,7 +18,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .errors import InputError
+from .errors import InputError, user_warning
 from .recording import MAX_INTERPOLATED_GAP, REQUIRED, SIGNALS, Recording
 
 COLUMNS = ("t",) + SIGNALS
@@ -30,9 +29,18 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
 
     On any exception the temporary file is removed and ``path`` is left untouched,
-    so no half-written output is ever visible.
+    so no half-written output is ever visible. An existing ``path`` that is not a regular
+    file (``/dev/null``, a named pipe, a terminal) is written into, never replaced: the
+    output is staged in a private temporary directory and copied there on success.
     """
     target = Path(path)
+    if target.exists() and not target.is_file() and not target.is_dir():
+        with tempfile.TemporaryDirectory(prefix="stictionbench-") as staging:
+            staged = Path(staging) / (target.name or "output")
+            yield staged
+            with open(staged, "rb") as src, open(target, "wb") as dst:
+                shutil.copyfileobj(src, dst)
+        return
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(fd)
@@ -154,10 +162,9 @@ def read_longest_stretch(path: str | os.PathLike[str], *, warn: bool = True) -> 
         rows = best.meta["rows"]
         others = ", ".join(f"rows {r.meta['rows'][0]}–{r.meta['rows'][1]}"
                            for r in parts if r is not best)
-        print(f"stictionbench: warning: {path}: gaps of more than {MAX_INTERPOLATED_GAP} "
-              f"missing samples cut the record into {len(parts)} usable stretches; using "
-              f"the longest, rows {rows[0]}–{rows[1]} ({len(best)} samples); not used: "
-              f"{others}", file=sys.stderr)
+        user_warning(f"{path}: gaps of more than {MAX_INTERPOLATED_GAP} missing samples cut "
+                     f"the record into {len(parts)} usable stretches; using the longest, "
+                     f"rows {rows[0]}–{rows[1]} ({len(best)} samples); not used: {others}")
     return best
 
 

@@ -8,7 +8,6 @@ nothing downstream re-checks shapes.
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -16,15 +15,22 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, user_warning
 
 SIGNALS = ("SP", "PV", "OP", "MV")
 REQUIRED = ("t", "PV", "OP")
 MIN_SAMPLES = 100
 MAX_INTERPOLATED_GAP = 5
-#: largest magnitude accepted in any column: beyond it squares and variances overflow
-#: double precision (no instrument or clock records such numbers)
+#: largest magnitude accepted in the time column: beyond it squares and variances
+#: overflow double precision (no clock records such numbers; epoch nanoseconds are 1e18)
 MAX_MAGNITUDE = 1e100
+#: largest magnitude accepted in a signal column (SP, PV, OP, MV): the fits square,
+#: multiply and sum them over the record, and at 1e90 they overflowed to a wrong delay or
+#: a failed logarithm; no instrument reads beyond 1e15 in any unit
+MAX_SIGNAL_MAGNITUDE = 1e15
+#: shortest sampling interval accepted (s): process data sampled faster than a
+#: microsecond is a mistaken time column (at 1e-18 s the FOPDT grid never finished)
+MIN_SAMPLE_TIME = 1e-6
 UNIFORM_TOLERANCE = 0.01
 
 
@@ -111,7 +117,7 @@ class Recording:
         Ts = _uniform_step(tt, source, first_row)
         if warn:
             for note in notes:
-                print(f"stictionbench: warning: {note}", file=sys.stderr)
+                user_warning(note)
         md = dict(meta or {})
         md.setdefault("source", source)
         if notes:
@@ -222,12 +228,13 @@ def _fill_missing(arrays: dict[str, np.ndarray | None], source: str,
         if bad.any():
             i = int(np.argmax(bad))
             raise InputError(f"{source}: row {i + first_row}, column {name}: infinite value")
+        limit = MAX_MAGNITUDE if name == "t" else MAX_SIGNAL_MAGNITUDE
         with np.errstate(invalid="ignore"):
-            huge = np.abs(arr) > MAX_MAGNITUDE
+            huge = np.abs(arr) > limit
         if huge.any():
             i = int(np.argmax(huge))
             raise InputError(f"{source}: row {i + first_row}, column {name}: {arr[i]:g} is "
-                             f"beyond ±{MAX_MAGNITUDE:g}, not a measurement")
+                             f"beyond ±{limit:g}, not a measurement")
         missing = np.isnan(arr)
         if missing.any():
             if name == "t":
@@ -245,6 +252,9 @@ def _uniform_step(tt: np.ndarray, source: str, first_row: int) -> float:
         raise InputError(
             f"{source}: row {i + first_row}, column t: time is not strictly increasing")
     Ts = float(np.median(dt))
+    if Ts < MIN_SAMPLE_TIME:
+        raise InputError(f"{source}: column t: sampling interval {Ts:g} s is below "
+                         f"{MIN_SAMPLE_TIME:g} s; give t in seconds")
     off = np.abs(dt - Ts) > UNIFORM_TOLERANCE * Ts
     if off.any():
         i = int(np.argmax(off)) + 1

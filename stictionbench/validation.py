@@ -136,8 +136,9 @@ def _same_file(a: Path, b: Path) -> bool:
 def refuse_overwrite(outputs: Iterable[str | os.PathLike[str] | None],
                      inputs: Iterable[str | os.PathLike[str] | None]) -> None:
     """Refuse an output path that is an input file (same path, symlink or hard link),
-    an input directory itself or a data file inside one (:data:`DATA_SUFFIXES`), or that
-    is named twice among the outputs.
+    an input directory itself or a data file inside one (:data:`DATA_SUFFIXES`), that is
+    named twice among the outputs, or that lies inside another output (a ``--json`` file
+    in the ``--report`` directory).
 
     Raises
     ------
@@ -172,6 +173,10 @@ def refuse_overwrite(outputs: Iterable[str | os.PathLike[str] | None],
     for i, r in enumerate(real):
         if r in real[:i]:
             raise InputError(f"{outs[i]}: named twice as an output")
+        for j, other in enumerate(real):
+            if j != i and r != other and Path(r).is_relative_to(other):
+                raise InputError(f"{outs[i]}: is inside the output {outs[j]}, whose files "
+                                 "would overwrite it; give it another place")
 
 
 def check_writable(files: Iterable[str | os.PathLike[str] | None] = (),

@@ -34,6 +34,18 @@ def _one_line_exit_2(capsys, argv: list[str]) -> str:
     return err[0]
 
 
+def _diagnose_with_model(tmp_path: Path, capsys, *, time_constant: float,
+                         dead_time: float) -> str:
+    """``diagnose`` with a FOPDT model of these constants: its one error line."""
+    rec = _recording(tmp_path / "rec.csv")
+    model = tmp_path / "m.yaml"
+    model.write_text(f"process: {{gain: 0.5, time_constant: {time_constant!r}, "
+                     f"dead_time: {dead_time!r}}}\n"
+                     "controller: {kc: 0.2, ti: 10.0}\nsample_time: 1.0\n")
+    return _one_line_exit_2(capsys, ["diagnose", str(rec), "--model", str(model), "--json",
+                                     str(tmp_path / "o.json")])
+
+
 def test_json_into_an_existing_directory_is_refused_before_any_report(tmp_path, capsys):
     rec = _recording(tmp_path / "rec.csv")
     (tmp_path / "out").mkdir()
@@ -93,12 +105,7 @@ def test_dead_time_grid_does_not_build_past_its_400_points():
 
 
 def test_a_model_dead_time_longer_than_the_recording_is_refused(tmp_path, capsys):
-    rec = _recording(tmp_path / "rec.csv")
-    model = tmp_path / "m.yaml"
-    model.write_text("process: {gain: 0.5, time_constant: 10.0, dead_time: 1.0e9}\n"
-                     "controller: {kc: 0.2, ti: 10.0}\nsample_time: 1.0\n")
-    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--model", str(model), "--json",
-                                    str(tmp_path / "o.json")])
+    msg = _diagnose_with_model(tmp_path, capsys, time_constant=10.0, dead_time=1.0e9)
     assert "dead_time" in msg and "longer than the recording" in msg
 
 
@@ -124,3 +131,104 @@ def test_an_unknown_key_inside_a_model_section_is_refused(tmp_path, capsys, sect
     msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--model", str(model), "--json",
                                     str(tmp_path / "o.json")])
     assert f"unknown key(s) in {section}: zeta" in msg
+
+
+# ---- second fuzz pass: special files, held warnings, limits, late checks, labels ----
+
+def test_an_output_that_is_a_named_pipe_is_written_into_not_replaced(tmp_path, capsys):
+    import os
+    import threading
+
+    rec = _recording(tmp_path / "rec.csv")
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    got: list[bytes] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    assert main(["estimate", str(rec), "--method", "xcorr", "--x", "OP", "--y", "PV",
+                 "--json", str(fifo)]) == 0
+    reader.join(timeout=30)
+    assert fifo.is_fifo() and b'"method": "xcorr"' in got[0]
+
+
+def test_a_warning_before_an_error_is_folded_into_the_one_error_line(tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv", n=330)
+    rows = rec.read_text().splitlines()
+    for i in range(151, 161):  # PV and OP missing for ten rows: the record is cut
+        t = rows[i].split(",")[0]
+        rows[i] = f"{t},,"
+    rec.write_text("\n".join(rows) + "\n")
+    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--json", str(tmp_path / "o.json")])
+    assert "at least 200" in msg and "(after:" in msg and "usable stretches" in msg
+
+
+def test_signal_magnitudes_beyond_1e15_and_sub_microsecond_steps_are_refused(tmp_path,
+                                                                            capsys):
+    rec = _recording(tmp_path / "big.csv", scale_pv=1e90)
+    msg = _one_line_exit_2(capsys, ["estimate", str(rec), "--method", "xcorr", "--x", "OP",
+                                    "--y", "PV"])
+    assert "column PV" in msg and "1e+15" in msg
+    fast = _recording(tmp_path / "fast.csv")
+    rows = fast.read_text().splitlines()
+    fast.write_text("\n".join([rows[0]] + [f"{k * 1e-18:g}," + r.split(",", 1)[1]
+                                            for k, r in enumerate(rows[1:])]) + "\n")
+    msg = _one_line_exit_2(capsys, ["diagnose", str(fast), "--json", str(tmp_path / "o.json")])
+    assert "sampling interval" in msg
+
+
+def test_a_model_time_constant_of_many_records_is_refused(tmp_path, capsys):
+    msg = _diagnose_with_model(tmp_path, capsys, time_constant=1.0e10, dead_time=1.0)
+    assert "time_constant" in msg and "times the recording" in msg
+
+
+def test_a_simulation_too_long_to_hold_and_a_dangling_interpolation_are_refused(tmp_path,
+                                                                               capsys):
+    out = tmp_path / "s.csv"
+    msg = _one_line_exit_2(capsys, ["simulate", "case=stiction", "duration=1e15",
+                                    f"out={out}"])
+    assert "samples" in msg and not out.exists()
+    rec = _recording(tmp_path / "rec.csv")
+    msg = _one_line_exit_2(capsys, ["estimate", str(rec), "estimator=xcum",
+                                    "estimator.max_delay=${nosuch}"])
+    assert "nosuch" in msg
+
+
+def test_an_output_inside_another_output_is_refused(tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv")
+    rep = tmp_path / "rep"
+    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--json", str(rep / "summary.md"),
+                                    "--report", str(rep)])
+    assert "inside the output" in msg and not rep.exists()
+
+
+def test_compare_checks_every_folder_before_any_work(tmp_path, capsys):
+    a = tmp_path / "A"
+    a.mkdir()
+    _recording(a / "L1.csv")
+    (a / "labels.csv").write_text("loop,label\nL1,stiction\n")
+    msg = _one_line_exit_2(capsys, ["compare", str(a), str(tmp_path / "nope"), "--out",
+                                    str(tmp_path / "out"), "--jobs", "1"])
+    assert "nope: no such directory" in msg
+
+
+def test_labels_are_normalised_and_an_ambiguous_or_missing_label_is_refused(tmp_path):
+    from stictionbench.errors import InputError
+    from stictionbench.realdata.datasets import read_labels
+
+    f = tmp_path / "labels.csv"
+    f.write_text("loop,label\na, Stiction\nb,No-Stiction\nc,disturbance\n")
+    assert list(read_labels(f).label) == ["stiction", "no_stiction", "disturbance"]
+    f.write_text("loop,label\na,sticky valve I think\n")
+    with pytest.raises(InputError, match="ambiguous"):
+        read_labels(f)
+    f.write_text("loop,kind\na,stiction\n")
+    with pytest.raises(InputError, match="'label' column"):
+        read_labels(f)
+
+
+def test_screen_with_nothing_readable_is_an_error_not_an_empty_screen(tmp_path, capsys):
+    bad = tmp_path / "bin.csv"
+    bad.write_bytes(bytes(range(256)))
+    out = tmp_path / "s.json"
+    msg = _one_line_exit_2(capsys, ["screen", str(bad), "--json", str(out)])
+    assert "bin.csv" in msg and not out.exists()

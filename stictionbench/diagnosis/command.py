@@ -5,9 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 
-from ..errors import InputError
+from ..errors import InputError, user_warning
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
@@ -52,7 +51,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
           f"model {d.model.source}; {d.details['seconds']:.1f} s")
     for key in ("warning", "model_warning"):
         if d.details.get(key):
-            print(f"stictionbench: warning: {d.details[key]}", file=sys.stderr)
+            user_warning(d.details[key])
     return 0
 
 

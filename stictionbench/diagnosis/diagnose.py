@@ -81,6 +81,11 @@ __all__ = ["Diagnosis", "closed_loop_replay", "compare", "cycle_evidence", "diag
 
 N_BLOCKS = 5
 
+#: a given time constant beyond this many record lengths leaves no part of the response
+#: in the record (its band corner falls below the record's lowest frequency by as much);
+#: refused rather than compared on rounding error
+MAX_TAU_RECORDS = 1e4
+
 
 def valve_output(name: str, p: np.ndarray, ctx: Context) -> np.ndarray:
     """The valve position implied by fitted hypothesis ``name`` (its own
@@ -225,6 +230,11 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
         raise InputError(f"{rec.meta.get('source', 'recording')}: the model's dead_time "
                          f"({theta:g} s) is longer than the recording ({n * Ts:g} s): "
                          "nothing OP did would reach PV within it")
+    if tau > MAX_TAU_RECORDS * n * Ts:
+        raise InputError(f"{rec.meta.get('source', 'recording')}: the model's "
+                         f"time_constant ({tau:g} s) is over {MAX_TAU_RECORDS:g} times the "
+                         f"recording ({n * Ts:g} s): no part of its response is in the "
+                         "record to compare")
     f_hp = hp_factor / (2 * math.pi * (tau + theta))
     band = band_of(model.source == "given")
     f_lp = lowpass_corner(Ts, tau, lp_factor, oscillation_frequency(

@@ -60,7 +60,8 @@ class NoiseModel:
         ``H`` (Ljung 1999, eq. 3.31). ``k = 1`` gives the innovations; a large ``k`` tends
         to the output error itself. A mismatch slower than the noise model's memory is
         predicted away one step ahead but not ``k`` steps ahead."""
-        k = max(1, int(k))
+        # beyond the record the k-step error is the output error itself
+        k = max(1, int(min(k, max(x.size, 1))))
         imp = np.zeros(k)
         imp[0] = 1.0
         f = lfilter([1.0], self.inverse(), imp)

@@ -37,6 +37,7 @@ def from_config(overrides: Sequence[str]) -> Estimator:
     (``estimator=xcum``, ``estimator.max_delay=50``)."""
     from hydra.errors import InstantiationException
     from hydra.utils import instantiate
+    from omegaconf.errors import OmegaConfBaseException
 
     from ..config import compose
 
@@ -50,6 +51,9 @@ def from_config(overrides: Sequence[str]) -> Estimator:
         est = instantiate(cfg.estimator, _convert_="all")
     except InstantiationException as exc:
         msg = str(exc).strip().splitlines()[-1]
+        raise InputError(f"estimator config: {msg}") from None
+    except OmegaConfBaseException as exc:  # e.g. an interpolation ${...} to no key
+        msg = str(exc).strip().splitlines()[0]
         raise InputError(f"estimator config: {msg}") from None
     if not isinstance(est, Estimator):
         raise InputError(f"estimator config {cfg.estimator.get('_target_')!r} is not an "

@@ -26,12 +26,9 @@ COLOURS = {"stiction": "#d62728", "no_stiction": "#2ca02c", "inconclusive": "#dd
            "unusable": "#777777"}
 
 
-def run_folder(directory: str | Path, jobs: int = 2) -> tuple[list[dict[str, Any]], pd.DataFrame]:
-    """Window calls and loop verdicts of one labelled folder (``labels.csv`` inside)."""
-    from joblib import Parallel, delayed
-    from tqdm import tqdm
-
-    from .compare import METHODS, loop_verdicts, window_calls
+def load_folder(directory: str | Path) -> dict[str, Any]:
+    """The recordings of one labelled folder (``labels.csv`` inside), checked before any
+    work is done on any folder."""
     from .datasets import load_csv_dir
 
     d = Path(directory)
@@ -43,6 +40,20 @@ def run_folder(directory: str | Path, jobs: int = 2) -> tuple[list[dict[str, Any
     recs, _ = load_csv_dir(d, labels=str(labels), warn=False)
     if not recs:
         raise InputError(f"{d}: no recordings")
+    return recs
+
+
+def run_folder(directory: str | Path, jobs: int = 2, recs: dict[str, Any] | None = None,
+               ) -> tuple[list[dict[str, Any]], pd.DataFrame]:
+    """Window calls and loop verdicts of one labelled folder (``labels.csv`` inside;
+    ``recs``: its recordings, when :func:`load_folder` has read them)."""
+    from joblib import Parallel, delayed
+    from tqdm import tqdm
+
+    from .compare import METHODS, loop_verdicts, window_calls
+
+    d = Path(directory)
+    recs = load_folder(d) if recs is None else recs
     names = list(recs)
     gen = Parallel(n_jobs=jobs, return_as="generator_unordered")(
         delayed(window_calls)(recs[n], n) for n in names)
@@ -139,9 +150,10 @@ def run_compare(dirs: list[str], out: str, consensus_out: str | None, jobs: int)
     refuse_overwrite([out, consensus_out], dirs)
     check_writable([consensus_out], [out])
     sets, windows = {}, {}
+    loaded = {d: load_folder(d) for d in dirs}  # every folder checked before any work
     for d in dirs:
         name = Path(d).resolve().name
-        windows[name], sets[name] = run_folder(d, jobs)
+        windows[name], sets[name] = run_folder(d, jobs, loaded[d])
     methods = list(METHODS)
     cross = cross_dataset(sets)
     default = fit(pd.concat(sets.values(), ignore_index=True))

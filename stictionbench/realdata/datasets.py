@@ -27,7 +27,6 @@ from __future__ import annotations
 import dataclasses
 import os
 import re
-import sys
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,7 +36,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..errors import InputError
+from ..errors import InputError, user_warning
 from ..io import check_input_file, csv_columns, read_stretches
 from ..recording import REQUIRED, Recording
 
@@ -341,7 +340,7 @@ def load_isdb_mat(
         if errors == "raise":
             raise InputError(skipped[0][1])
         for _, reason in skipped:
-            print(f"stictionbench: warning: skipped {reason}", file=sys.stderr)
+            user_warning(f"skipped {reason}")
     return recs
 
 
@@ -452,6 +451,10 @@ def read_labels(path: str | os.PathLike[str]) -> pd.DataFrame:
     df.columns = [str(c).strip() for c in df.columns]
     if "loop" not in df.columns:
         raise InputError(f"{p}: labels need a 'loop' column; found {', '.join(df.columns)}")
+    if "label" not in df.columns:
+        raise InputError(f"{p}: labels need a 'label' column (stiction, or the loop's "
+                         f"other class); found {', '.join(df.columns)}")
+    df["label"] = df["label"].map(lambda v: _label(v, p), na_action="ignore")
     df["loop"] = df["loop"].astype(str).str.strip()
     dup = df["loop"][df["loop"].duplicated()]
     if not dup.empty:
@@ -461,6 +464,20 @@ def read_labels(path: str | os.PathLike[str]) -> pd.DataFrame:
     else:
         df["group"] = df["group"].fillna(df["loop"]).astype(str)
     return df.set_index("loop", drop=False).rename_axis(None)
+
+
+def _label(value: Any, path: Path) -> str:
+    """A label as scored: case, spaces and hyphens normalised (``Stiction`` and
+    ``no stiction`` are ``stiction`` and ``no_stiction``); a label that mentions
+    stiction otherwise (``sticky valve?``, ``stiction suspected``) is refused as
+    ambiguous, since anything but ``stiction`` is scored as no stiction (the ISDB's
+    classes ``deadzone+tight_tuning``, ``disturbance`` and the like)."""
+    text = "_".join(str(value).strip().lower().replace("-", " ").split())
+    if "stic" in text and text not in ("stiction", "no_stiction"):
+        raise InputError(f"{path}: label {str(value)!r} is ambiguous: write 'stiction' "
+                         "for a sticking valve and 'no_stiction' (or the loop's class, "
+                         "e.g. 'disturbance') otherwise")
+    return text
 
 
 def _with_meta(rec: Recording, extra: Mapping[str, Any]) -> Recording:
@@ -586,7 +603,7 @@ def read_any(path: str | os.PathLike[str], *, warn: bool = True) -> dict[str, Re
                 try:
                     out[lp.name] = lp.as_recording(warn=warn)
                 except InputError as exc:
-                    print(f"stictionbench: warning: skipped {lp.name}: {exc}", file=sys.stderr)
+                    user_warning(f"skipped {lp.name}: {exc}")
             return out
         return load_isdb_mat(p, errors="skip", warn=warn)
     return {n: _with_meta(r, {"name": n, "group": p.stem})

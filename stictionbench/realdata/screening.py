@@ -75,6 +75,10 @@ def cmd_screen(args: argparse.Namespace) -> int:
     recs, skipped = _collect(args.paths)
     if not recs and not skipped:
         raise InputError("no CSV, Parquet or .mat files found in " + ", ".join(args.paths))
+    if not recs:  # nothing could be read: an error, as in batch, not an empty screen
+        more = f" (and {len(skipped) - 1} more file(s) unreadable)" if len(skipped) > 1 else ""
+        f, reason = skipped[0]
+        raise InputError((reason if reason.startswith(str(f)) else f"{f}: {reason}") + more)
     reports = []
     for name, rec in recs:
         rep = screen(rec)

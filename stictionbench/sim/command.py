@@ -12,6 +12,9 @@ from ..validation import number
 
 #: keys of ``simulate`` that are not Hydra overrides of ``conf/config.yaml``
 SPECIAL_KEYS = ("out", "case", "duration", "seed")
+#: recorded samples one run may produce (ten million: about four weeks at 0.25 s, and
+#: some hundred megabytes of signals; beyond it the arrays no longer fit in memory)
+MAX_SAMPLES = 10_000_000
 
 
 def split_overrides(tokens: Sequence[str]) -> tuple[dict[str, str], list[str]]:
@@ -61,7 +64,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         if s < 0:
             raise InputError(f"seed: must be ≥ 0, got {s}")
         overrides.append(f"seed={s}")
-    rec = simulate_config(config_for(case, overrides))
+    cfg = config_for(case, overrides)
+    n = float(cfg.duration) / float(cfg.sample_time)
+    if n > MAX_SAMPLES:
+        raise InputError(f"duration={cfg.duration:g} s at sample_time={cfg.sample_time:g} s "
+                         f"is {n:.3g} samples; at most {MAX_SAMPLES:.0e} are simulated "
+                         "(split a longer study into several runs)")
+    rec = simulate_config(cfg)
     write_recording(rec, out)
     print(f"wrote {out}: {len(rec)} samples, Ts = {rec.Ts:g} s, case {rec.meta['case']}")
     return 0
