@@ -232,3 +232,16 @@ def test_screen_with_nothing_readable_is_an_error_not_an_empty_screen(tmp_path, 
     out = tmp_path / "s.json"
     msg = _one_line_exit_2(capsys, ["screen", str(bad), "--json", str(out)])
     assert "bin.csv" in msg and not out.exists()
+
+
+def test_a_model_sample_time_other_than_the_recordings_is_a_warning_after_the_result(
+        tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv")
+    model = tmp_path / "m.yaml"
+    model.write_text("process: {gain: 0.5, time_constant: 10.0, dead_time: 1.0}\n"
+                     "controller: {kc: 0.2, ti: 10.0}\nsample_time: 7.0\n")
+    assert main(["diagnose", str(rec), "--model", str(model), "--json",
+                 str(tmp_path / "o.json")]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "sample_time 7 s differs" in err[0]
+    assert (tmp_path / "o.json").is_file()

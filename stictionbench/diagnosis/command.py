@@ -21,6 +21,11 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     check_writable([args.json], [args.report])
     model = load_model(args.model) if args.model else None
     rec = read_longest_stretch(args.recording)
+    if model is not None and model.sample_time and not math.isclose(
+            model.sample_time, rec.Ts, rel_tol=0.01):
+        user_warning(f"{args.model}: sample_time {model.sample_time:g} s differs from the "
+                     f"recording's {rec.Ts:g} s; the model is continuous-time and is used "
+                     "as given")
     op_range = None
     if args.op_range:
         lo, hi = args.op_range
