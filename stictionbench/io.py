@@ -264,15 +264,16 @@ TIME_ALIASES = ("time", "timestamp", "datetime", "date_time", "time_s", "t_s")
 def _canonical_columns(frame: pd.DataFrame, source: str) -> pd.DataFrame:
     """Rename columns that match a signal's name up to case (``pv``, ``Op``) or a time
     alias (:data:`TIME_ALIASES`) to the canonical ``t, SP, PV, OP, MV``; a name matched by
-    two columns is an error, an exact name is never renamed."""
+    two columns (``PV`` and ``pv``, ``t`` and ``time``) is an error, an exact name is never
+    renamed."""
     names = [str(c) for c in frame.columns]
     wanted = {c.lower(): c for c in COLUMNS}
     wanted.update({a: "t" for a in TIME_ALIASES})
     rename: dict[str, str] = {}
     for canon in COLUMNS:
-        if canon in names:
-            continue
         hits = [c for c in names if wanted.get(c.lower()) == canon]
+        if canon in names and len(hits) == 1:
+            continue
         if len(hits) > 1:
             raise InputError(f"{source}: columns {', '.join(hits)} could each be {canon}; "
                              f"rename one")

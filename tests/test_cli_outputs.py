@@ -245,3 +245,12 @@ def test_a_model_sample_time_other_than_the_recordings_is_a_warning_after_the_re
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "sample_time 7 s differs" in err[0]
     assert (tmp_path / "o.json").is_file()
+
+
+def test_an_exact_column_name_beside_a_variant_of_it_is_refused(tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv")
+    rows = rec.read_text().splitlines()
+    amb = tmp_path / "amb.csv"
+    amb.write_text("\n".join([rows[0] + ",pv"] + [r + ",1" for r in rows[1:]]) + "\n")
+    msg = _one_line_exit_2(capsys, ["diagnose", str(amb), "--json", str(tmp_path / "o.json")])
+    assert "PV, pv could each be PV" in msg
