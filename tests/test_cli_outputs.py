@@ -109,12 +109,18 @@ def test_a_model_dead_time_longer_than_the_recording_is_refused(tmp_path, capsys
     assert "dead_time" in msg and "longer than the recording" in msg
 
 
-def test_a_repeated_column_name_is_refused(tmp_path, capsys):
+def _diagnose_with_extra_column(tmp_path: Path, capsys, name: str) -> str:
+    """``diagnose`` on a recording with one more column ``name``: its one error line."""
     rec = _recording(tmp_path / "rec.csv")
-    text = rec.read_text().splitlines()
-    dup = tmp_path / "dup.csv"
-    dup.write_text("\n".join([text[0] + ",PV"] + [r + ",0" for r in text[1:]]) + "\n")
-    msg = _one_line_exit_2(capsys, ["diagnose", str(dup), "--json", str(tmp_path / "o.json")])
+    rows = rec.read_text().splitlines()
+    extra = tmp_path / "extra.csv"
+    extra.write_text("\n".join([rows[0] + f",{name}"] + [r + ",1" for r in rows[1:]]) + "\n")
+    return _one_line_exit_2(capsys, ["diagnose", str(extra), "--json",
+                                     str(tmp_path / "o.json")])
+
+
+def test_a_repeated_column_name_is_refused(tmp_path, capsys):
+    msg = _diagnose_with_extra_column(tmp_path, capsys, "PV")
     assert "'PV' appears more than once" in msg
 
 
@@ -248,9 +254,5 @@ def test_a_model_sample_time_other_than_the_recordings_is_a_warning_after_the_re
 
 
 def test_an_exact_column_name_beside_a_variant_of_it_is_refused(tmp_path, capsys):
-    rec = _recording(tmp_path / "rec.csv")
-    rows = rec.read_text().splitlines()
-    amb = tmp_path / "amb.csv"
-    amb.write_text("\n".join([rows[0] + ",pv"] + [r + ",1" for r in rows[1:]]) + "\n")
-    msg = _one_line_exit_2(capsys, ["diagnose", str(amb), "--json", str(tmp_path / "o.json")])
+    msg = _diagnose_with_extra_column(tmp_path, capsys, "pv")
     assert "PV, pv could each be PV" in msg
