@@ -256,3 +256,14 @@ def test_a_model_sample_time_other_than_the_recordings_is_a_warning_after_the_re
 def test_an_exact_column_name_beside_a_variant_of_it_is_refused(tmp_path, capsys):
     msg = _diagnose_with_extra_column(tmp_path, capsys, "pv")
     assert "PV, pv could each be PV" in msg
+
+
+def test_a_labelled_loop_without_its_recording_is_named_in_one_warning(tmp_path, capsys):
+    from stictionbench.realdata.datasets import load_csv_dir
+
+    _recording(tmp_path / "a.csv")
+    (tmp_path / "labels.csv").write_text("loop,label\na,stiction\nzz,no_stiction\n")
+    recs, _ = load_csv_dir(tmp_path, warn=False)
+    assert list(recs) == ["a"]
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "with no recording in the folder: zz" in err[0]

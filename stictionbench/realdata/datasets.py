@@ -522,7 +522,8 @@ def load_csv_dir(
         goes into ``meta["labels"]`` (all columns), ``meta["label"]`` and
         ``meta["group"]`` (the file stem when the table has no group or no row).
     warn : bool
-        Print interpolation warnings on stderr.
+        Print interpolation warnings on stderr. Labelled loops without a recording in
+        the folder are always named in one warning.
 
     Returns
     -------
@@ -569,6 +570,13 @@ def load_csv_dir(
         for name, rec in _stretch_names(f.stem, parts):
             recs[name] = _with_meta(rec, {"name": name, "group": f.stem,
                                           **_label_meta(table, f.stem)})
+    if table is not None:  # a labelled loop without its file: a typo or a lost file
+        stems = {f.stem for f in d.glob("*.csv")}
+        orphans = [str(k) for k in table.index if str(k) not in stems]
+        if orphans:
+            shown = ", ".join(orphans[:5]) + (" …" if len(orphans) > 5 else "")
+            user_warning(f"{d}: {len(orphans)} labelled loop(s) with no recording in the "
+                         f"folder: {shown}")
     return recs, skipped
 
 
