@@ -267,3 +267,13 @@ def test_a_labelled_loop_without_its_recording_is_named_in_one_warning(tmp_path,
     assert list(recs) == ["a"]
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "with no recording in the folder: zz" in err[0]
+
+
+def test_a_model_key_given_twice_is_refused(tmp_path, capsys):
+    rec = _recording(tmp_path / "rec.csv")
+    model = tmp_path / "m.yaml"
+    model.write_text("process: {gain: 0.5, gain: 5.0, time_constant: 10.0, dead_time: 1.0}\n"
+                     "controller: {kc: 0.2, ti: 10.0}\nsample_time: 1.0\n")
+    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--model", str(model), "--json",
+                                    str(tmp_path / "o.json")])
+    assert "'gain' appears twice" in msg
