@@ -202,8 +202,17 @@ def _as_columns(raw: dict[str, Any], source: str) -> dict[str, np.ndarray | None
         if value is None:
             arrays[name] = None
             continue
+        raw_arr = np.asarray(value)
+        if sum(k > 1 for k in raw_arr.shape) > 1:
+            raise InputError(f"{source}: column {name} is a {raw_arr.shape} array, not one "
+                             "signal")
+        if np.iscomplexobj(raw_arr):
+            if np.any(np.imag(raw_arr) != 0):
+                raise InputError(f"{source}: column {name} holds complex numbers, not a "
+                                 "measurement")
+            raw_arr = np.real(raw_arr)
         try:
-            arr = np.asarray(value, dtype=float).reshape(-1)
+            arr = np.asarray(raw_arr, dtype=float).reshape(-1)
         except (TypeError, ValueError) as exc:
             raise InputError(f"{source}: column {name} is not numeric ({exc})") from None
         if n is None:

@@ -277,3 +277,16 @@ def test_a_model_key_given_twice_is_refused(tmp_path, capsys):
     msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--model", str(model), "--json",
                                     str(tmp_path / "o.json")])
     assert "'gain' appears twice" in msg
+
+
+def test_a_complex_or_two_dimensional_signal_is_refused_not_cast():
+    from stictionbench.errors import InputError
+    from stictionbench.recording import Recording
+
+    t = np.arange(200.0)
+    x = np.sin(t / 5)
+    with pytest.raises(InputError, match="complex"):
+        Recording.from_arrays(t, x + 1j * x, x, warn=False)
+    with pytest.raises(InputError, match="not one signal"):
+        Recording.from_arrays(t, np.c_[x, x], x, warn=False)
+    assert len(Recording.from_arrays(t, x.reshape(1, -1), x + 0j, warn=False)) == 200
