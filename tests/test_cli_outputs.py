@@ -290,3 +290,15 @@ def test_a_complex_or_two_dimensional_signal_is_refused_not_cast():
     with pytest.raises(InputError, match="not one signal"):
         Recording.from_arrays(t, np.c_[x, x], x, warn=False)
     assert len(Recording.from_arrays(t, x.reshape(1, -1), x + 0j, warn=False)) == 200
+
+
+def test_a_consensus_file_with_a_key_given_twice_is_refused(tmp_path):
+    from stictionbench.errors import InputError
+    from stictionbench.realdata.consensus import Consensus
+
+    f = tmp_path / "cons.yaml"
+    f.write_text("methods: [horch]\nthreshold: 0.5\nthreshold: 0.9\nmin_votes: 1\n")
+    with pytest.raises(InputError, match="'threshold' appears twice"):
+        Consensus.load(f)
+    f.write_text("methods: [horch]\nthreshold: 0.5\nmin_votes: 1\n")
+    assert Consensus.load(f).threshold == 0.5

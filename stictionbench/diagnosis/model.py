@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from .. import strict_yaml
 from ..errors import InputError
 from ..recording import Recording
 
@@ -45,21 +46,6 @@ class NominalModel:
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
-
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """PyYAML's safe loader, refusing a key given twice in one mapping (the safe loader
-    keeps the last one without a word: a model with two ``gain`` lines would be read
-    with one of them)."""
-
-    def construct_mapping(self, node, deep=False):  # type: ignore[no-untyped-def]
-        seen: set = set()
-        for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=deep)
-            if key in seen:
-                raise yaml.constructor.ConstructorError(
-                    None, None, f"key {key!r} appears twice", key_node.start_mark)
-            seen.add(key)
-        return super().construct_mapping(node, deep=deep)
 
 
 def _num(path: str, key: str, value: Any, *, positive: bool = False,
@@ -92,7 +78,7 @@ def load_model(path: str | Path) -> NominalModel:
     if not p.is_file():
         raise InputError(f"{p}: no such model file")
     try:
-        doc = yaml.load(p.read_text(encoding="utf-8"), Loader=_UniqueKeyLoader)  # noqa: S506
+        doc = strict_yaml.load(p.read_text(encoding="utf-8"))
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else "parse error"
         raise InputError(f"{p}: not valid YAML ({first})") from None

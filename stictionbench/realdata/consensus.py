@@ -66,11 +66,12 @@ class Consensus:
         """The consensus in ``path`` (default: the shipped ``conf/consensus/default.yaml``)."""
         import yaml
 
+        from .. import strict_yaml
         from ..config import conf_dir
 
         p = Path(path) if path else conf_dir() / "consensus" / "default.yaml"
         try:
-            d = yaml.safe_load(p.read_text(encoding="utf-8")) or {}
+            d = strict_yaml.load(p.read_text(encoding="utf-8")) or {}
             return cls(tuple(d["methods"]), float(d["threshold"]), int(d["min_votes"]))
         except (OSError, KeyError, TypeError, ValueError, yaml.YAMLError) as exc:
             raise InputError(f"{p}: not a consensus file ({exc})") from None
