@@ -332,6 +332,9 @@ def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bo
                 raise InputError(f"{source}: column t: timestamps not readable")
             cols[name] = stamps
         else:
+            if pd.api.types.is_bool_dtype(col):  # as from CSV, where true/false is text
+                raise InputError(f"{source}: column {name} holds true/false values, not "
+                                 "numbers")
             try:
                 cols[name] = pd.to_numeric(col, errors="raise").to_numpy(dtype=float)
             except (ValueError, TypeError):

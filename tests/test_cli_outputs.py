@@ -302,3 +302,20 @@ def test_a_consensus_file_with_a_key_given_twice_is_refused(tmp_path):
         Consensus.load(f)
     f.write_text("methods: [horch]\nthreshold: 0.5\nmin_votes: 1\n")
     assert Consensus.load(f).threshold == 0.5
+
+
+def test_a_true_false_column_is_refused_from_parquet_as_from_csv(tmp_path):
+    import pandas as pd
+
+    from stictionbench.errors import InputError
+    from stictionbench.io import read_recording
+
+    n = 200
+    frame = pd.DataFrame({"t": np.arange(n, dtype=float), "PV": np.arange(n) % 2 == 0,
+                          "OP": np.sin(np.arange(n) / 5)})
+    frame.to_parquet(tmp_path / "b.parquet")
+    with pytest.raises(InputError, match="true/false"):
+        read_recording(tmp_path / "b.parquet")
+    frame.to_csv(tmp_path / "b.csv", index=False)
+    with pytest.raises(InputError, match="not a number"):
+        read_recording(tmp_path / "b.csv")
