@@ -48,7 +48,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -58,11 +57,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
+import causal_filter as cf  # noqa: E402
 import holdout_family as hf  # noqa: E402
-from concealed import run_one  # noqa: E402
 from holdout_pooled import per16  # noqa: E402
 
-from stictionbench.diagnosis.openloop import band_sos, comparison_band, highpass  # noqa: E402
+from stictionbench.diagnosis.openloop import band_sos  # noqa: E402
 from stictionbench.io import atomic_path, write_text  # noqa: E402
 from stictionbench.rates import fisher_p, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -89,24 +88,16 @@ def matched_causal_band(x: np.ndarray, Ts: float, f_c: float | None,
     return sosfilt(np.vstack([sos, sos]), x - x[0], axis=0)
 
 
-BANDS = {"zero_phase": highpass, "causal": comparison_band, "matched": matched_causal_band}
+BANDS = {**cf.BANDS, "matched": matched_causal_band}
 LABELS = {"zero_phase": "zero-phase, |H|²", "causal": "causal, |H| (shipped)",
           "matched": "causal, |H|² (matched)"}
 
 
-def _use(band: str) -> None:
-    from stictionbench.diagnosis import openloop
-
-    openloop.comparison_band = BANDS[band]
-
-
 def holdout_case(cls: str, level: int, seed: int, band: str) -> dict:
     """One holdout recording diagnosed with ``band`` and its model."""
-    _use(band)
-    with tempfile.TemporaryDirectory() as tmp:
-        row = run_one(hf.generate(cls, level, seed, Path(tmp)))
+    r = cf.holdout_case(cls, level, seed, band, BANDS)
     return {"set": "holdout", "family": "holdout", "rate": "", "class": cls,
-            "level": level, "seed": seed, "band": band, "pick": row["predicted_default"]}
+            "level": level, "seed": seed, "band": band, "pick": r["pick"]}
 
 
 def regulatory_case(family: str, cls: str, seed: int, rate: str, band: str) -> dict:
@@ -117,7 +108,7 @@ def regulatory_case(family: str, cls: str, seed: int, rate: str, band: str) -> d
     from stictionbench.diagnosis.model import NominalModel
     from stictionbench.recording import Recording
 
-    _use(band)
+    cf.use_band(band, BANDS)
     c = lc.draw(family, cls, seed)
     sig = lc.simulate(c, rate)
     rec = Recording.from_arrays(sig["t"], sig["PV"], sig["OP"], warn=False)

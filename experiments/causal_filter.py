@@ -69,17 +69,19 @@ FAMILY_SEEDS = range(4)
 BANDS = {"zero_phase": highpass, "causal": comparison_band}
 
 
-def use_band(band: str) -> None:
-    """Make ``band`` (:data:`BANDS`) the diagnosis's comparison band against a given model
-    in this process (``openloop.band_of`` reads ``openloop.comparison_band``)."""
+def use_band(band: str, bands: dict | None = None) -> None:
+    """Make ``band`` of ``bands`` (default :data:`BANDS`; ``band_magnitude.py`` adds its
+    own) the diagnosis's comparison band against a given model in this process
+    (``openloop.band_of`` reads ``openloop.comparison_band``)."""
     from stictionbench.diagnosis import openloop
 
-    openloop.comparison_band = BANDS[band]
+    openloop.comparison_band = (BANDS if bands is None else bands)[band]
 
 
-def holdout_case(cls: str, level: int, seed: int, band: str = "causal") -> dict:
-    """One holdout recording diagnosed with ``band``."""
-    use_band(band)
+def holdout_case(cls: str, level: int, seed: int, band: str = "causal",
+                 bands: dict | None = None) -> dict:
+    """One holdout recording diagnosed with ``band`` (of ``bands``, see :func:`use_band`)."""
+    use_band(band, bands)
     with tempfile.TemporaryDirectory() as tmp:
         row = run_one(hf.generate(cls, level, seed, Path(tmp)))
     return {"set": "holdout", "class": cls, "level": level, "seed": seed,
