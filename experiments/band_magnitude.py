@@ -134,7 +134,7 @@ def table(df: pd.DataFrame) -> pd.DataFrame:
         for lvl in (1, 2):
             g = hold[hold.level == lvl]
             none = g[g["class"] == "none"]
-            r[f"holdout L{lvl} of 16"] = per16(_count(g, band, "correct"), len(g))
+            r[f"holdout L{lvl} of 16"] = per16(g[band] == g["class"], g["class"])
             r[f"holdout L{lvl} none called physics"] = rate_text(
                 _count(none, band, "physics"), len(none))
         healthy = reg[reg["class"].isin(["none", "tight"])]

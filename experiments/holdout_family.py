@@ -62,7 +62,7 @@ from concealed import (  # noqa: E402
 from concealed_families import CLASSES, DURATION, Case, choudhury_valve_step  # noqa: E402
 
 from stictionbench.io import atomic_path, write_text  # noqa: E402
-from stictionbench.rates import rate_text  # noqa: E402
+from stictionbench.rates import balanced_score, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 FAMILY = "holdout_sync"
@@ -452,9 +452,10 @@ def report(df: pd.DataFrame, args: argparse.Namespace, wall: float) -> str:
     for lvl in (1, 2):
         g = df.level == lvl
         phys, none = g & (df["class"] != "none"), g & (df["class"] == "none")
-        per16 = 16 * ok[g].mean()
+        per16 = balanced_score(ok[g], df["class"][g], 16)[0]
         lines.append(f"- level {lvl}: named {rate_text(int(ok[g].sum()), int(g.sum()))} "
-                     f"(≈ {per16:.1f} of 16 at this rate); physics classes "
+                     f"(≈ {per16:.1f} of 16 with the classes weighted equally); physics "
+                     "classes "
                      f"{rate_text(int(ok[phys].sum()), int(phys.sum()))}; `none` called "
                      f"physics {rate_text(int((~ok[none]).sum()), int(none.sum()))}")
     st = df[df["class"] == "stiction"]

@@ -56,6 +56,46 @@ def rate_text(k: int, n: int, level: float = 0.95) -> str:
     return f"{k}/{n} = {100 * k / n:.0f} % [{100 * lo:.0f}, {100 * hi:.0f}]"
 
 
+def balanced_score(correct: pd.Series, stratum: pd.Series, total: int = 16,
+                   level: float = 0.95) -> tuple[float, float, float]:
+    """A score out of ``total`` recordings drawn equally from every stratum (class), with
+    its interval: ``total`` times the mean of the per-class rates.
+
+    A benchmark that draws more recordings of one class than another (twice as many
+    ``none``, say) overweights that class in the pooled rate; a test set made of equal
+    numbers per class is estimated by the stratified mean instead (Cochran, *Sampling
+    Techniques*, 1977, ch. 5). The interval is the normal one of the stratified mean, its
+    variance from Agresti–Coull-adjusted rates ``(k + 2)/(n + 4)`` (Agresti & Coull 1998)
+    so that a class named right every time still contributes, clipped to
+    ``[0, total]``.
+
+    Returns ``(score, low, high)``.
+
+    Examples
+    --------
+    >>> ok = pd.Series([True] * 4 + [False] * 4 + [True] * 2)
+    >>> cls = pd.Series(["a"] * 4 + ["b"] * 4 + ["b"] * 2)
+    >>> [round(v, 2) for v in balanced_score(ok, cls)]
+    [10.67, 6.05, 15.29]
+    """
+    ok = pd.Series(np.asarray(correct, dtype=bool), index=stratum.index)
+    g = ok.groupby(stratum.to_numpy())
+    k, n = g.sum().to_numpy(float), g.size().to_numpy(float)
+    if k.size == 0:
+        return float("nan"), float("nan"), float("nan")
+    w = total / k.size
+    score = float(w * np.sum(k / n))
+    pa = (k + 2.0) / (n + 4.0)
+    half = float(norm.ppf(0.5 + level / 2)) * w * float(np.sqrt(np.sum(pa * (1 - pa) / n)))
+    return score, max(0.0, score - half), min(float(total), score + half)
+
+
+def balanced_text(correct: pd.Series, stratum: pd.Series, total: int = 16) -> str:
+    """``"12.0 [11.3, 12.7]"``: :func:`balanced_score` as text."""
+    s, lo, hi = balanced_score(correct, stratum, total)
+    return f"{s:.1f} [{lo:.1f}, {hi:.1f}]"
+
+
 def fisher_p(k1: int, n1: int, k2: int, n2: int) -> float:
     """Two-sided p-value of Fisher's exact test that ``k1/n1`` and ``k2/n2`` are the same
     rate (``scipy.stats.fisher_exact`` on the 2 × 2 table; Fisher 1935).

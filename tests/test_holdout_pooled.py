@@ -43,15 +43,21 @@ def _frame() -> pd.DataFrame:
 def test_level_rows_count_named_and_false_alarms():
     rows = {r["level"]: r for r in hp.level_rows(_frame())}
     assert rows[1]["named correctly"].startswith("16/16")
-    assert rows[1]["of 16 (95 % interval)"].startswith("16.0")
+    key = "of 16, classes weighted equally (95 % interval)"
+    assert rows[1][key].startswith("16.0")
     assert rows[2]["named correctly"].startswith("13/16")
+    # level 2: none 3/4, stiction 10/12 → 16 × (0.75 + 0.833)/2 = 12.7 with the classes
+    # weighted equally, where the pooled rate 13/16 weighs `none` 4/16
+    assert rows[2][key].startswith("12.7")
+    assert rows[2]["pooled rate × 16 (`none` weighed 2/9)"] == 13.0
     assert rows[2]["`none` called physics"].startswith("1/4")
 
 
 def test_blocks_and_dof_bins_split_the_same_verdicts():
     df = _frame()
     blocks = hp.by_block(df).set_index("block")
-    assert blocks.loc[1000, "level 2 of 16"] == 14.0
+    # none 2/2 and stiction 5/6, weighted equally: 16 × (1 + 5/6)/2
+    assert blocks.loc[1000, "level 2 of 16"] == 14.7
     assert blocks.loc[BLIND, "level 2 none called physics"] == "1/2"
     assert blocks.loc[BLIND, "status"] == "blind"
     dof = hp.by_dof(df)
