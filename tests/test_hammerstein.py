@@ -148,3 +148,40 @@ def test_kano_valve_under_a_faster_pi_stays_stiction_with_choudhurys_rule_search
     h = d.details["hammerstein"]
     assert d.missing_physics == "stiction"
     assert h["J"] >= 0.1 * h["S"]
+
+
+@pytest.mark.parametrize("fixed", [False, True])
+def test_dead_band_refit_searches_the_band_the_slip_jump_mimics(fixed, monkeypatch):
+    # a stick-slip valve (S, J) moving lags OP by (S − J)/2: the restricted (J = 0) fit
+    # of the slip-jump test searches widths down to (S − J)/2, below the 0.7 S the
+    # profile's own scan starts at, and re-chooses the process; it is never worse than
+    # that scan, and the test's statistic never higher
+    from stictionbench.diagnosis import hammerstein as H
+
+    rec = _rec("deadband", valve__deadband=2.0)
+    cap = {}
+    shipped = H._result
+
+    def spy(rec_, crit, p, *a, **k):
+        cap["crit"], cap["p"] = crit, p
+        return shipped(rec_, crit, p, *a, **k)
+
+    monkeypatch.setattr(H, "_result", spy)
+    linear = (3.0, 10.0, 10.0) if fixed else None
+    monkeypatch.setattr(H, "J0_NUISANCE", False)
+    r0 = H.fit_hammerstein(rec, linear=linear, fix_process=fixed)
+    monkeypatch.setattr(H, "J0_NUISANCE", True)
+    r1 = H.fit_hammerstein(rec, linear=linear, fix_process=fixed)
+    crit, p = cap["crit"], cap["p"]
+    S, J, rule, tau, theta = p
+    v, q = H._dead_band_fit(crit, p)
+    assert q[1] == 0.0 and q[2] == 0
+    scan = min(crit.cost(float(s), 0.0, 0, tau, theta)
+               for s in max(S, J / 1.5) * np.geomspace(0.7, 1.45, 48))
+    assert v <= scan * (1 + 1e-12)
+    a, b = r0.tests["slip_jump_zero"], r1.tests["slip_jump_zero"]
+    assert b["statistic"] <= a["statistic"] + 1e-9
+    assert b["p_value"] >= a["p_value"] - 1e-12
+    # the interval of J reaches 0 exactly when J = 0 is not rejected
+    for r in (r0, r1):
+        assert (r.J_interval[0] == 0.0) == (r.tests["slip_jump_zero"]["p_value"] >= r.alpha)

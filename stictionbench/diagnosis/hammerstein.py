@@ -152,6 +152,10 @@ class _Criterion:
         self.evaluations = 0
         #: hold the process at the given (τ, θ) (a nominal model the user trusts)
         self.fixed = False
+        #: the given model's dead time (held process) and the linear loop's processes
+        #: found by the identification (starting points of the dead band's refit)
+        self.theta_given = 0.0
+        self.linear_processes: list[tuple[float, float]] = []
 
     def set_noise(self, h: NoiseModel) -> None:
         self.noise = h
@@ -383,8 +387,11 @@ def _profile(crit: _Criterion, p: tuple, v_min: float, which: str,
 
     est = J if which == "J" else S
     unit = max(est, 0.05 * S)
-    stat0 = stat(0.0) if which == "J" else n * math.log(
-        max(crit.cost(0.0, 0.0, 0, tau, theta), 1e-300) / v_min)
+    if which == "J":
+        v0 = _dead_band_variance(crit, p) if J0_NUISANCE else math.inf
+        stat0 = min(stat(0.0), n * math.log(max(v0, 1e-300) / v_min))
+    else:
+        stat0 = n * math.log(max(crit.cost(0.0, 0.0, 0, tau, theta), 1e-300) / v_min)
     lower = 0.0
     for f in _STEPS:
         v = est - f * unit
@@ -398,9 +405,60 @@ def _profile(crit: _Criterion, p: tuple, v_min: float, which: str,
         if stat(est + f * unit) > thr:
             upper = est + f * unit
             break
-    if which == "J" and stat0 > thr:
-        lower = max(lower, 1e-12)
+    if which == "J":
+        # J = 0 inside the confidence set (its own test) → the interval reaches 0, so that
+        # "the interval excludes 0" and "J = 0 rejected" say the same thing
+        lower = max(lower, 1e-12) if stat0 > thr else 0.0
     return [float(lower), float(upper)], float(stat0)
+
+
+#: the ``J = 0`` end of the slip-jump test also re-optimises the nuisance parameters
+#: (:func:`_dead_band_variance`); False: the process held at the valve's estimate and ``S``
+#: scanned around the fitted ``S`` only. A candidate scored by
+#: ``experiments/slip_jump_nuisance.py`` against a criterion fixed before its run
+J0_NUISANCE = False
+
+
+def _dead_band_variance(crit: _Criterion, p: tuple) -> float:
+    return _dead_band_fit(crit, p)[0]
+
+
+def _dead_band_fit(crit: _Criterion, p: tuple) -> tuple[float, tuple]:
+    """Innovation variance of the best dead band (``J = 0``, the play operator) with the
+    nuisance parameters re-optimised, the restricted fit of a profile likelihood ratio
+    (Pawitan, *In All Likelihood*, 2001, ch. 3.4; Ljung 1999, ch. 16.4: both models
+    fitted by the same criterion with the same effort).
+
+    A stick-slip valve ``(S, J)`` moving lags OP by ``(S − J)/2``, so the dead band it
+    mimics has width about ``S − J``, not ``S``: the band's width is searched from half
+    of ``S − J`` to 1.45 ``S`` (48 points, then Nelder–Mead). The process is re-chosen
+    too: among the held shifts of a given model's dead time (:func:`_held_shifts`), or
+    jointly over ``(ln τ, θ/Ts)`` when it is identified (a slip jump moves the valve's
+    timing, and the fitted process follows it)."""
+    S, J, _, tau, theta = p
+    lo = 0.5 * max(S - min(J, 1.5 * S), 0.05 * S)
+    valves = [(float(s), 0.0, 0) for s in np.geomspace(lo, 1.45 * S, 48)]
+    if crit.fixed:
+        base = crit.theta_given
+        procs = [(tau, base + d) for d in _held_shifts(crit) if base + d >= 0]
+    else:
+        procs = [(tau, theta), *crit.linear_processes]
+    v, q = _batch(crit, valves, procs)[0]
+    s0, _, _, tau0, theta0 = q
+    if crit.fixed:
+        def unpack(z):
+            return (_exp_within(z[0], 1e-3 * crit.span, 1.2 * crit.span), 0.0, 0, tau0, theta0)
+        z0, steps = np.array([math.log(s0)]), (0.1,)
+    else:
+        (tlo, thi), (dlo, dhi) = _bounds(crit, tau0, theta0)
+
+        def unpack(z):
+            return (_exp_within(z[0], 1e-3 * crit.span, 1.2 * crit.span), 0.0, 0,
+                    _exp_within(z[1], tlo, thi), min(max(z[2] * crit.Ts, dlo), dhi))
+        z0 = np.array([math.log(s0), math.log(tau0), theta0 / crit.Ts])
+        steps = (0.1, 0.2, 1.0)
+    fun, z = _nelder_mead(crit, lambda z: crit.cost(*unpack(z)), z0, steps, 150)
+    return (v, q) if v <= fun else (fun, unpack(z))
 
 
 def _validation_nrmse(crit: _Criterion, sim: np.ndarray) -> float:
@@ -471,9 +529,11 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
     burn = min(int(math.ceil((theta0 + 3 * tau0) / Ts)), op.size // 5)
     crit = _Criterion(op, pv, Ts, f_hp, *_blocks(op.size, burn))
     crit.fixed = bool(fix_process and linear is not None)
+    crit.theta_given = theta0
     # 1. output-error fits (white H): the linear loop, then the valve on a grid and by
     #    joint refinement of valve and process
     _, tau_l, theta_l = _linear(crit, tau0, theta0)
+    crit.linear_processes = [(tau_l, theta_l)]
     # with the process held, the valve's timing is searched around the given θ, not
     # around the linear loop's shifted one (the shifts would add up: _held_shifts)
     grid = _valve_grid(crit, tau_l, theta0 if crit.fixed else theta_l)
@@ -496,6 +556,7 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
     candidates = [q for _, q in per_rule.values()] if crit.fixed else [p]
     v_valve, p = min((_refine(crit, q, tau_l, theta_l) for q in candidates),
                      key=lambda e: e[0])
+    crit.linear_processes.append((tau_l, theta_l))
     if v_valve > v_lin:  # the linear loop is the S → 0 limit of the valve
         v_valve, p = v_lin, (0.0, 0.0, 0, tau_l, theta_l)
     return _result(rec, crit, p, v_valve, v_lin, (tau_l, theta_l), alpha, t0)
