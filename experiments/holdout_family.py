@@ -240,9 +240,19 @@ SEEN_FRESH = {
     25000: "drawn with 26000 for `band_magnitude.py`, which scored a causal band of the "
            "zero-phase band's magnitude against the shipped causal band and the zero-phase "
            "band by a criterion stated before the run (not met); with the shipped band: "
-           "level 2 of 16 12.8 over both blocks, `none` called physics 5/96. No rule "
-           "changed after; the next rule change is scored on 27000.",
+           "level 2 of 16 12.8 over both blocks (the pooled rate; 12.5 with the classes "
+           "weighted equally), `none` called physics 5/96. No rule changed after; the "
+           "next rule change is scored on 27000.",
     26000: "drawn with 25000 for `band_magnitude.py` (see 25000); no rule changed after.",
+    27000: "drawn with 28000-30000 at 6d08099 as blind blocks (shipped code, the classes "
+           "weighted equally: level 1 15.8, level 2 12.0 of 16, `none` called physics 2/96 "
+           "and 4/96), then the score of `slip_jump_nuisance.py`'s J = 0 refit with a "
+           "model, by a criterion stated before (met by one verdict; adopted). The next "
+           "rule change is scored on 31000.",
+    28000: "drawn with 27000 (see 27000).",
+    29000: "drawn with 27000 (see 27000).",
+    30000: "drawn with 27000 (see 27000); its level-2 dead band 30001 is the verdict the "
+           "J = 0 refit moved (stiction → deadband).",
     20000: "`slow_loops.py`'s healthy loops (seeds 20000-20023 of `none`, their speed "
            "varied); the other classes there are undrawn.",
 }

@@ -150,12 +150,11 @@ def test_kano_valve_under_a_faster_pi_stays_stiction_with_choudhurys_rule_search
     assert h["J"] >= 0.1 * h["S"]
 
 
-@pytest.mark.parametrize("fixed", [False, True])
-def test_dead_band_refit_searches_the_band_the_slip_jump_mimics(fixed, monkeypatch):
-    # a stick-slip valve (S, J) moving lags OP by (S − J)/2: the restricted (J = 0) fit
-    # of the slip-jump test searches widths down to (S − J)/2, below the 0.7 S the
-    # profile's own scan starts at, and re-chooses the process; it is never worse than
-    # that scan, and the test's statistic never higher
+def test_dead_band_refit_searches_the_band_the_slip_jump_mimics(monkeypatch):
+    # a stick-slip valve (S, J) moving lags OP by (S − J)/2: with a given model the
+    # restricted (J = 0) fit of the slip-jump test searches widths down to (S − J)/2,
+    # below the 0.7 S the profile's own scan starts at, and re-chooses the dead-time
+    # shift; it is never worse than that scan, and the test's statistic never higher
     from stictionbench.diagnosis import hammerstein as H
 
     rec = _rec("deadband", valve__deadband=2.0)
@@ -167,21 +166,26 @@ def test_dead_band_refit_searches_the_band_the_slip_jump_mimics(fixed, monkeypat
         return shipped(rec_, crit, p, *a, **k)
 
     monkeypatch.setattr(H, "_result", spy)
-    linear = (3.0, 10.0, 10.0) if fixed else None
-    monkeypatch.setattr(H, "J0_NUISANCE", False)
-    r0 = H.fit_hammerstein(rec, linear=linear, fix_process=fixed)
-    monkeypatch.setattr(H, "J0_NUISANCE", True)
-    r1 = H.fit_hammerstein(rec, linear=linear, fix_process=fixed)
-    crit, p = cap["crit"], cap["p"]
+    runs = {}
+    for fixed in (True, False):
+        for flag in (False, True):
+            monkeypatch.setattr(H, "J0_NUISANCE", flag)
+            runs[fixed, flag] = H.fit_hammerstein(
+                rec, linear=(3.0, 10.0, 10.0) if fixed else None, fix_process=fixed)
+            if fixed and flag:
+                crit, p = cap["crit"], cap["p"]
     S, J, rule, tau, theta = p
     v, q = H._dead_band_fit(crit, p)
     assert q[1] == 0.0 and q[2] == 0
     scan = min(crit.cost(float(s), 0.0, 0, tau, theta)
                for s in max(S, J / 1.5) * np.geomspace(0.7, 1.45, 48))
     assert v <= scan * (1 + 1e-12)
-    a, b = r0.tests["slip_jump_zero"], r1.tests["slip_jump_zero"]
+    a, b = (runs[True, f].tests["slip_jump_zero"] for f in (False, True))
     assert b["statistic"] <= a["statistic"] + 1e-9
     assert b["p_value"] >= a["p_value"] - 1e-12
+    # without a model (not scored there) the test is the held-process profile as before
+    assert (runs[False, True].tests["slip_jump_zero"]
+            == runs[False, False].tests["slip_jump_zero"])
     # the interval of J reaches 0 exactly when J = 0 is not rejected
-    for r in (r0, r1):
+    for r in runs.values():
         assert (r.J_interval[0] == 0.0) == (r.tests["slip_jump_zero"]["p_value"] >= r.alpha)
