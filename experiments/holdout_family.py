@@ -247,12 +247,13 @@ SEEN_FRESH = {
     27000: "drawn with 28000-30000 at 6d08099 as blind blocks (shipped code, the classes "
            "weighted equally: level 1 15.8, level 2 12.0 of 16, `none` called physics 2/96 "
            "and 4/96), then the score of `slip_jump_nuisance.py`'s J = 0 refit with a "
-           "model, by a criterion stated before (met by one verdict; adopted). The next "
-           "rule change is scored on 31000.",
+           "model, by a criterion stated before (met by one verdict; not adopted after "
+           "the tuning families, `slip_jump_nuisance.md`). The next rule change is scored "
+           "on 31000 (`slip_jump_symmetric.py`: 31000-34000).",
     28000: "drawn with 27000 (see 27000).",
     29000: "drawn with 27000 (see 27000).",
     30000: "drawn with 27000 (see 27000); its level-2 dead band 30001 is the verdict the "
-           "J = 0 refit moved (stiction → deadband).",
+           "J = 0 refit would have moved (stiction → deadband).",
     20000: "`slow_loops.py`'s healthy loops (seeds 20000-20023 of `none`, their speed "
            "varied); the other classes there are undrawn.",
 }

@@ -48,7 +48,7 @@ from stictionbench.reports.tables import to_markdown  # noqa: E402
 #: compared before the switch (``causal_blind.md``), and 21000–26000, drawn after it
 #: (25000 and 26000 by ``band_magnitude.py``, which changed no rule), and 27000–30000,
 #: drawn blind and then the score of the slip-jump test's J = 0 refit with a model
-#: (``slip_jump_nuisance.py``: a search change, no threshold; it moved one verdict there).
+#: (``slip_jump_nuisance.py``: a search change, no threshold, not adopted).
 #: Blocks 1000–15000 were pooled with the zero-phase band (this report at ``f45f3d5``
 #: and its extension to 19000 in the commit that switched the band) and are not re-run.
 BLOCKS = (16000, 17000, 18000, 19000, 21000, 22000, 23000, 24000, 25000, 26000, 27000,
@@ -247,8 +247,8 @@ def report(df: pd.DataFrame) -> str:
         f"{names} was looked at while rules were chosen (`holdout_family.SEEN_FRESH`), so "
         f"the pooled rates are not blind; blocks {names} were drawn after the last "
         "threshold or band change and, pooled, are the blind estimate (27000–30000 then "
-        "decided the slip-jump test's J = 0 refit, by a criterion stated before their run, "
-        "`slip_jump_nuisance.md`). No threshold was set on this family.",
+        "scored the slip-jump test's J = 0 refit, not adopted, `slip_jump_nuisance.md`). "
+        "No threshold was set on this family.",
         "",
         "## Pooled",
         "",

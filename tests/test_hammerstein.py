@@ -189,3 +189,21 @@ def test_dead_band_refit_searches_the_band_the_slip_jump_mimics(monkeypatch):
     # the interval of J reaches 0 exactly when J = 0 is not rejected
     for r in runs.values():
         assert (r.J_interval[0] == 0.0) == (r.tests["slip_jump_zero"]["p_value"] >= r.alpha)
+
+
+def test_restart_from_the_dead_band_keeps_the_best_of_both_ends(monkeypatch):
+    # with a given model and J0_RESTART, the stick-slip valve is also restarted from the
+    # refitted dead band: the valve kept fits the training innovations at least as well
+    # as without the restart, and J = 0 is rejected only against that optimum
+    from stictionbench.diagnosis import hammerstein as H
+
+    rec = _rec("kano", valve__S=3.0, valve__J=1.0)
+    runs = {}
+    for flag in (False, True):
+        monkeypatch.setattr(H, "J0_RESTART", flag)
+        monkeypatch.setattr(H, "J0_NUISANCE", flag)
+        runs[flag] = H.fit_hammerstein(rec, linear=(3.0, 10.0, 10.0), fix_process=True)
+    off, on = runs[False], runs[True]
+    assert on.innovation_variance["valve"] <= off.innovation_variance["valve"] * (1 + 1e-12)
+    assert on.stiction and on.J_interval[0] > 0.0
+    assert on.S == pytest.approx(3.0, rel=0.3)

@@ -154,6 +154,8 @@ class _Criterion:
         self.fixed = False
         #: the given model's dead time (the held process's shifts are around it)
         self.theta_given = 0.0
+        #: the best dead band found by :func:`_restart_from_dead_band` (J0_RESTART)
+        self.dead_band_v = math.inf
 
     def set_noise(self, h: NoiseModel) -> None:
         self.noise = h
@@ -387,6 +389,7 @@ def _profile(crit: _Criterion, p: tuple, v_min: float, which: str,
     unit = max(est, 0.05 * S)
     if which == "J":
         v0 = _dead_band_variance(crit, p) if J0_NUISANCE and crit.fixed else math.inf
+        v0 = min(v0, crit.dead_band_v)
         stat0 = min(stat(0.0), n * math.log(max(v0, 1e-300) / v_min))
     else:
         stat0 = n * math.log(max(crit.cost(0.0, 0.0, 0, tau, theta), 1e-300) / v_min)
@@ -548,9 +551,34 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
     candidates = [q for _, q in per_rule.values()] if crit.fixed else [p]
     v_valve, p = min((_refine(crit, q, tau_l, theta_l) for q in candidates),
                      key=lambda e: e[0])
+    if J0_RESTART and crit.fixed and p[0] > 0:
+        v_valve, p = _restart_from_dead_band(crit, p, v_valve, tau_l, theta_l)
     if v_valve > v_lin:  # the linear loop is the S → 0 limit of the valve
         v_valve, p = v_lin, (0.0, 0.0, 0, tau_l, theta_l)
     return _result(rec, crit, p, v_valve, v_lin, (tau_l, theta_l), alpha, t0)
+
+
+#: with a given model, search both ends of the slip-jump test with the same effort: the
+#: dead band refitted with its nuisance parameters (:func:`_dead_band_fit`) and the
+#: stick-slip valve restarted from that dead band under every stop rule, the better of
+#: all kept (:func:`_restart_from_dead_band`). A candidate scored by
+#: ``experiments/slip_jump_symmetric.py`` against a criterion fixed before its run
+J0_RESTART = False
+
+
+def _restart_from_dead_band(crit: _Criterion, p: tuple, v: float, tau_l: float,
+                            theta_l: float) -> tuple[float, tuple]:
+    """The stick-slip fit ``(v, p)`` compared with the dead band refitted around it and
+    with the stick-slip valve restarted from that dead band (``J = 0.2 S`` under every
+    searched stop rule, Nelder–Mead as in the search): the nested models searched with the
+    same effort, so that the best of all is the unrestricted optimum. A dead band that
+    fits better than every stick-slip fit found is returned as the valve (``J = 0``)."""
+    v0, q0 = _dead_band_fit(crit, p)
+    best = min([(v, p), (v0, q0)]
+               + [_refine(crit, (q0[0], 0.2 * q0[0], rule, q0[3], q0[4]), tau_l, theta_l)
+                  for rule in searched_rules(crit.fixed)], key=lambda e: e[0])
+    crit.dead_band_v = min(v0, crit.dead_band_v)
+    return best
 
 
 def _result(rec: Recording, crit: _Criterion, p: tuple, v_valve: float, v_lin: float,
