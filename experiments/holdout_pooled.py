@@ -48,15 +48,17 @@ from stictionbench.reports.tables import to_markdown  # noqa: E402
 #: compared before the switch (``causal_blind.md``), and 21000–26000, drawn after it
 #: (25000 and 26000 by ``band_magnitude.py``, which changed no rule), and 27000–30000,
 #: drawn blind and then the score of the slip-jump test's J = 0 refit with a model
-#: (``slip_jump_nuisance.py``: a search change, no threshold, not adopted).
+#: (``slip_jump_nuisance.py``: a search change, no threshold, not adopted), and
+#: 31000–34000, drawn blind for ``slip_jump_symmetric.py`` (not adopted either).
 #: Blocks 1000–15000 were pooled with the zero-phase band (this report at ``f45f3d5``
 #: and its extension to 19000 in the commit that switched the band) and are not re-run.
 BLOCKS = (16000, 17000, 18000, 19000, 21000, 22000, 23000, 24000, 25000, 26000, 27000,
-          28000, 29000, 30000)
+          28000, 29000, 30000, 31000, 32000, 33000, 34000)
 #: blocks drawn after the last threshold or band change of the package (21000: ``make
 #: concealed``'s ``holdout_fresh.md``), no rule chosen on them except by a criterion
 #: stated before their run: their pooled rates are the blind estimate
-BLIND = (21000, 22000, 23000, 24000, 25000, 26000, 27000, 28000, 29000, 30000)
+BLIND = (21000, 22000, 23000, 24000, 25000, 26000, 27000, 28000, 29000, 30000, 31000,
+         32000, 33000, 34000)
 SEEDS, NONE_SEEDS = 12, 24
 #: in-band degrees of freedom bins of the report (the band-dof gate's reference is 100)
 DOF_BINS = (0.0, 25.0, 35.0, 60.0, 100.0, 200.0, np.inf)
@@ -247,7 +249,8 @@ def report(df: pd.DataFrame) -> str:
         f"{names} was looked at while rules were chosen (`holdout_family.SEEN_FRESH`), so "
         f"the pooled rates are not blind; blocks {names} were drawn after the last "
         "threshold or band change and, pooled, are the blind estimate (27000–30000 then "
-        "scored the slip-jump test's J = 0 refit, not adopted, `slip_jump_nuisance.md`). "
+        "scored the slip-jump test's J = 0 refit and 31000–34000 its two-ended search, neither "
+        "adopted: `slip_jump_nuisance.md`, `slip_jump_symmetric.md`). "
         "No threshold was set on this family.",
         "",
         "## Pooled",
