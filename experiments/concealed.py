@@ -71,8 +71,8 @@ from stictionbench.diagnosis.evidence import (  # noqa: E402
     scaled_gate,
     select,
 )
-from stictionbench.io import atomic_directory, read_recording  # noqa: E402
-from stictionbench.rates import rate_text, wilson  # noqa: E402
+from stictionbench.io import atomic_directory, read_recording, write_text  # noqa: E402
+from stictionbench.rates import balanced_text, rate_text, wilson  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
@@ -329,6 +329,11 @@ def _named(df: pd.DataFrame, pred: pd.Series, sel: pd.Series) -> str:
     return rate_text(int((pred[sel] == df["class"][sel]).sum()), int(sel.sum()))
 
 
+def _of16(df: pd.DataFrame, pred: pd.Series, sel: pd.Series) -> str:
+    """Named right out of 16 with the classes weighted equally (``rates.balanced_score``)."""
+    return balanced_text(pred[sel] == df["class"][sel], df["class"][sel], 16)
+
+
 def none_rates(df: pd.DataFrame, pred: pd.Series) -> list[str]:
     lines = []
     for lvl in (1, 2):
@@ -478,6 +483,9 @@ def summary(df: pd.DataFrame, tuned: tuple[float, float], lofo_tab: pd.DataFrame
         to_markdown(lofo_tab), "",
         f"- overall, level 1: {_named(df, lofo_pred, df.level == 1)}; "
         f"level 2: {_named(df, lofo_pred, df.level == 2)}",
+        "- of 16 drawn as the concealed set is (2 of each class, `none` one of the 8; "
+        "these counts hold 3× as many `none` as of any other class): "
+        + "; ".join(f"level {lvl} {_of16(df, lofo_pred, df.level == lvl)}" for lvl in (1, 2)),
         f"- `none` called physics: {'; '.join(none_rates(df, lofo_pred))}", "",
         "## The package defaults (what `stictionbench diagnose` answers)", "",
         f"alpha = {DEFAULTS[0]:g}, min_improvement = {DEFAULTS[1]:g}: "
@@ -518,10 +526,13 @@ def summary(df: pd.DataFrame, tuned: tuple[float, float], lofo_tab: pd.DataFrame
     return "\n".join(lines) + "\n"
 
 
-def timing_line(df: pd.DataFrame, wall: float, jobs: int) -> str:
-    """The report's line on diagnosis time (per recording, and the run's wall time)."""
+def timing_line(df: pd.DataFrame, wall: float | None, jobs: int) -> str:
+    """The report's line on diagnosis time (per recording, and the run's wall time;
+    ``wall`` None: the report was rewritten from ``results.csv``)."""
+    run = (f"total wall {wall:.0f} s with {jobs} workers" if wall is not None else
+           "the run's wall time is not in results.csv (report rewritten by --report-only)")
     return (f"Diagnosis time per recording: median {df.seconds.median():.2f} s, max "
-            f"{df.seconds.max():.2f} s; total wall {wall:.0f} s with {jobs} workers.")
+            f"{df.seconds.max():.2f} s; {run}.")
 
 
 def main(argv=None) -> int:
@@ -537,10 +548,22 @@ def main(argv=None) -> int:
                     help="fit the hypotheses by output error instead of prediction error "
                          "(the earlier method); default out: reports/concealed_output_error")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--report-only", action="store_true",
+                    help="rewrite summary.md from the folder's results.csv (the thresholds "
+                         "and leave-one-family-out picks recomputed), diagnosing nothing")
     a = ap.parse_args(argv)
     a.out = a.out or str(ROOT / "reports" / ("concealed" + ("_model_free" if a.model_free
                                                             else "")
                                              + ("_output_error" if a.output_error else "")))
+    if a.report_only:
+        df = pd.read_csv(Path(a.out) / "results.csv", keep_default_na=False,
+                         na_values={c: [""] for c in ("slip_jump_p", "band_dof", "effect")})
+        tuned = tune(df[df.family == TUNING_FAMILY])
+        lofo_tab, lofo_pred = lofo(df)
+        text = summary(df, tuned, lofo_tab, lofo_pred, None, a)
+        write_text(Path(a.out) / "summary.md", text)
+        print(text)
+        return 0
     from joblib import Parallel, delayed
     from tqdm import tqdm
 
