@@ -53,7 +53,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.signal import lfilter
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -64,8 +63,8 @@ from concealed import decision_row, write_job  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.model import NominalModel  # noqa: E402
-from stictionbench.diagnosis.noise import fit_noise_model  # noqa: E402
 from stictionbench.diagnosis.openloop import fopdt_coefficients, fopdt_response  # noqa: E402
+from stictionbench.diagnosis.slip_bootstrap import sieve_disturbance  # noqa: E402
 from stictionbench.io import atomic_path, read_recording, write_text  # noqa: E402
 from stictionbench.rates import fisher_p, rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
@@ -79,21 +78,8 @@ SEED = 20261126
 LEVEL = 0.05
 
 
-def null_disturbance(r: np.ndarray, n: int, rng: np.random.Generator,
-                     d_extra: int = 0, burn: int = 200) -> np.ndarray:
-    """An output disturbance like ``r`` by the AR sieve: ``r``'s noise model (AR order by
-    BIC, integrated or not) driven by its own innovations resampled with replacement,
-    integrated ``d_extra`` more times than fitted."""
-    nm = fit_noise_model(r)
-    x = np.diff(r) if nm.integrated else r
-    for _ in range(d_extra):
-        x = np.diff(x)
-    eps = lfilter(nm.ar, [1.0], x - x.mean())[nm.order:]
-    v = lfilter([1.0], nm.ar, rng.choice(eps, size=n + burn))
-    for _ in range(int(nm.integrated) + d_extra):
-        v = np.cumsum(v)
-    v = v[burn:]
-    return v - v[0] + r[0]
+#: the AR-sieve disturbance, shared with the package's slip-jump bootstrap
+null_disturbance = sieve_disturbance
 
 
 def closed_loop(m: NominalModel, sp: np.ndarray, v: np.ndarray, op0: float, pv0: float,

@@ -32,7 +32,11 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
             raise InputError(f"--op-range: expected LO HI with HI > LO, got {lo:g} {hi:g}")
         op_range = (lo, hi)
-    d = diagnose(rec, model, op_range=op_range)
+    if args.slip_jump_bootstrap < 0:
+        raise InputError(f"--slip-jump-bootstrap: expected a number of null recordings "
+                         f">= 0, got {args.slip_jump_bootstrap}")
+    d = diagnose(rec, model, op_range=op_range, slip_jump_bootstrap=args.slip_jump_bootstrap,
+                 bootstrap_seed=args.bootstrap_seed)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
@@ -79,4 +83,11 @@ def add_command(sub) -> None:
                    help="OP's 0 and 100 %% in its own units, for the valve characteristic "
                         "(default: the model's op_range, else per cent or a fraction "
                         "recognised from the data, else that hypothesis is not tested)")
+    p.add_argument("--slip-jump-bootstrap", type=int, default=0, metavar="B",
+                   help="decide stiction against dead band by a closed-loop parametric "
+                        "bootstrap of the slip-jump test with B >= 19 null recordings "
+                        "(needs --model with kc, ti and a set point; about 0.4 s each); "
+                        "default 0: the chi-square test")
+    p.add_argument("--bootstrap-seed", type=int, default=0, metavar="SEED",
+                   help="seed of the bootstrap's resampling (default 0)")
     p.set_defaults(func=cmd_diagnose)

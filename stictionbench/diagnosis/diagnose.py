@@ -603,7 +603,8 @@ def own_resolution(rec: Recording, model_given: bool) -> frozenset[str]:
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
              min_improvement: float = MIN_IMPROVEMENT, hp_factor: float = HP_FACTOR,
              lp_factor: float = 5.0, hypotheses: tuple[str, ...] | None = None,
-             pem: bool = True, op_range: tuple[float, float] | None = None) -> Diagnosis:
+             pem: bool = True, op_range: tuple[float, float] | None = None,
+             slip_jump_bootstrap: int = 0, bootstrap_seed: int = 0) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -633,6 +634,13 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         OP's 0 and 100 % in its own units, for the valve characteristic; default: the
         model's ``op_range``, else recognised from the data (per cent or a fraction,
         :func:`.op_range.infer_op_range`), else that hypothesis is not tested.
+    slip_jump_bootstrap : int
+        Decide stiction against dead band by a closed-loop parametric bootstrap of the
+        slip-jump test with this many null recordings (at least 19; needs a given model
+        with its PI and the set point; :mod:`.slip_bootstrap`) instead of χ²₁; 0 (the
+        default) keeps χ²₁. ``tests.slip_jump_zero`` then holds both p-values.
+    bootstrap_seed : int
+        Seed of the bootstrap's resampling.
 
     Returns
     -------
@@ -645,11 +653,17 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     Ind. Eng. Chem. Res. 44 (2005); Karra & Karim, Control Eng. Practice 17 (2009).
     """
     t0 = time.perf_counter()
+    if slip_jump_bootstrap:
+        from .slip_bootstrap import check_request
+
+        check_request(rec, model, slip_jump_bootstrap)
     cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor, pem=pem,
                   op_range=op_range)
     loc = locate(cmp)
     names = hypothesise(cmp, loc, hypotheses)
     fits, ham = fit(cmp, names, alpha=alpha)
+    if slip_jump_bootstrap:
+        _bootstrap_slip_jump(cmp, ham, slip_jump_bootstrap, bootstrap_seed)
     dof = band_dof(cmp.prob.val.size, cmp.ctx.Ts, cmp.prob.f_hp, cmp.prob.f_lp)
     # against a given model the NRMSE gate grows where the band holds few independent
     # validation samples (evidence.scaled_gate: slow loops sampled fast)
@@ -675,6 +689,24 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     d.details["nrmse_gate"] = gate
     d.details["seconds"] = time.perf_counter() - t0
     return d
+
+
+def _bootstrap_slip_jump(cmp: Comparison, ham: HammersteinResult | None, B: int,
+                         seed: int) -> None:
+    """Replace the χ²₁ p-value of ``J = 0`` by its closed-loop bootstrap
+    (:mod:`.slip_bootstrap`), in place: the stiction fit's evidence holds the same test,
+    so the decision reads it; the asymptotic one is kept beside it."""
+    from .slip_bootstrap import bootstrap_slip_jump
+
+    if ham is None or ham.S <= 0:
+        if ham is not None:
+            ham.tests["slip_jump_zero"]["bootstrap"] = "not run: no valve identified"
+        return
+    t = ham.tests["slip_jump_zero"]
+    boot = bootstrap_slip_jump(cmp.rec, cmp.model, ham, B=B, hp_factor=cmp.hp_factor,
+                               seed=seed)
+    t.update({"p_asymptotic": t["p_value"], "p_value": boot["p_bootstrap"],
+              "method": "bootstrap", "bootstrap": boot})
 
 
 def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Verdict,

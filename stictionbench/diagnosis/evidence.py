@@ -335,7 +335,9 @@ def select(rows: list[dict[str, Any]], slip_jump_p: float | None, *, alpha: floa
         st = row["parameters"]
         big = st.get("J", 0.0) >= min_slip_fraction * st.get("S", 0.0)
         own = row["p_value"] < alpha and not row.get("at_bound", False)
-        pick = "stiction" if slip_jump_p < alpha and big and own else "deadband"
+        # ≤: a Monte Carlo p-value (diagnose --slip-jump-bootstrap) rejects at level α
+        # when it is ≤ α (Davison & Hinkley 1997, ch. 4.2); χ²'s is never exactly α
+        pick = "stiction" if slip_jump_p <= alpha and big and own else "deadband"
     return pick
 
 

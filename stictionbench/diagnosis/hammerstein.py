@@ -108,13 +108,17 @@ class HammersteinResult:
     #: sticky valve does not reverse the process) and a time constant off the lower end
     #: of its search range (there the optimiser found no process, only a fast fit)
     consistent: bool = True
+    #: the identification's criterion and estimate ``(S, J, rule, τ, θ)``, for a test that
+    #: refits around them (:mod:`.slip_bootstrap`); not serialised
+    criterion: Any = field(default=None, repr=False)
+    estimate: tuple = field(default=(), repr=False)
 
     @property
     def stiction(self) -> bool:
         """Valve significantly better than the linear loop *and* the ``1 − α`` interval of
     ``J`` excludes 0 (the profile test of ``J = 0`` at level ``α``), with a
     :attr:`consistent` process."""
-        return bool(self.sticky and self.tests["slip_jump_zero"]["p_value"] < self.alpha)
+        return bool(self.sticky and self.tests["slip_jump_zero"]["p_value"] <= self.alpha)
 
     @property
     def sticky(self) -> bool:
@@ -619,5 +623,6 @@ def _result(rec: Recording, crit: _Criterion, p: tuple, v_valve: float, v_lin: f
              "improvement": 1.0 - nr_v / max(nr_l, 1e-300)},
         noise_model=crit.noise.to_dict(), alpha=alpha,
         seconds=time.perf_counter() - t0, mv=mv,
+        criterion=crit, estimate=tuple(p),
         consistent=bool(S <= 0 or (K * K_l > 0 and (crit.fixed
                                                    or tau > 1.05 * _bounds(crit, tau, 0)[0][0]))))
