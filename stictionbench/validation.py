@@ -133,12 +133,19 @@ def _same_file(a: Path, b: Path) -> bool:
         return os.path.realpath(a) == os.path.realpath(b)
 
 
+#: the kinds of file a report directory is written with (tables, summaries, figures): an
+#: output of such a kind inside a report directory could be overwritten by one of them,
+#: or overwrite it; a JSON beside the report (``--json rep/batch.json --report rep``, as
+#: ``make real`` writes) cannot, and is allowed
+REPORT_SUFFIXES = (".md", ".csv", ".png", ".svg", ".pdf")
+
+
 def refuse_overwrite(outputs: Iterable[str | os.PathLike[str] | None],
                      inputs: Iterable[str | os.PathLike[str] | None]) -> None:
     """Refuse an output path that is an input file (same path, symlink or hard link),
     an input directory itself or a data file inside one (:data:`DATA_SUFFIXES`), that is
-    named twice among the outputs, or that lies inside another output (a ``--json`` file
-    in the ``--report`` directory).
+    named twice among the outputs, or that lies inside another output with a name a report
+    file could have (:data:`REPORT_SUFFIXES`: ``--json rep/summary.md --report rep``).
 
     Raises
     ------
@@ -174,7 +181,8 @@ def refuse_overwrite(outputs: Iterable[str | os.PathLike[str] | None],
         if r in real[:i]:
             raise InputError(f"{outs[i]}: named twice as an output")
         for j, other in enumerate(real):
-            if j != i and r != other and Path(r).is_relative_to(other):
+            if (j != i and r != other and Path(r).is_relative_to(other)
+                    and Path(r).suffix.lower() in REPORT_SUFFIXES):
                 raise InputError(f"{outs[i]}: is inside the output {outs[j]}, whose files "
                                  "would overwrite it; give it another place")
 

@@ -4,6 +4,7 @@ input, magnitudes no measurement has, worker counts that mean nothing)."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -205,6 +206,17 @@ def test_an_output_inside_another_output_is_refused(tmp_path, capsys):
     msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--json", str(rep / "summary.md"),
                                     "--report", str(rep)])
     assert "inside the output" in msg and not rep.exists()
+
+
+def test_a_json_beside_its_report_inside_the_report_directory_is_written(tmp_path, capsys):
+    # the layout `make real` uses (--json reports/real/isdb/batch.json --report
+    # reports/real/isdb): a report writes no JSON, so nothing can overwrite it
+    rec = _recording(tmp_path / "rec.csv")
+    rep = tmp_path / "rep"
+    assert main(["diagnose", str(rec), "--json", str(rep / "out.json"), "--report",
+                 str(rep)]) == 0
+    assert (rep / "out.json").is_file() and (rep / "summary.md").is_file()
+    assert json.loads((rep / "out.json").read_text())["missing_physics"]
 
 
 def test_compare_checks_every_folder_before_any_work(tmp_path, capsys):
