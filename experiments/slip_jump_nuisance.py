@@ -11,7 +11,7 @@ only, while the unrestricted fit had searched all of them. A valve ``(S, J)`` mo
 OP by ``(S − J)/2``, so the dead band it resembles is about ``S − J`` wide, which the scan
 (0.7 S … 1.45 S) missed whenever ``J > 0.3 S``. A restricted fit searched less hard than
 the unrestricted one inflates the likelihood ratio. The candidate
-(``hammerstein.J0_NUISANCE``, :func:`hammerstein._dead_band_variance`) refits the dead
+(``hammerstein.J0_NUISANCE``, :func:`hammerstein._dead_band_fit`) refits the dead
 band with the band's width from ``(S − J)/2`` to ``1.45 S`` and the process nuisance
 re-chosen (the held shifts of a given model; ``τ`` and ``θ`` by Nelder–Mead without a
 model, at ff610a6), and takes the better of the two restricted fits.
@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 from pathlib import Path
 
 import pandas as pd
@@ -72,33 +71,20 @@ ALPHA = 0.05
 
 
 def case(cls: str, level: int, seed: int, variant: str, part: str) -> dict:
-    """One holdout recording diagnosed with its model, the ``J = 0`` end of the slip-jump
-    test as ``variant`` (:data:`VARIANTS`); set on every call, since a worker keeps the
-    module state of its previous task."""
+    """One recording diagnosed with its model, the ``J = 0`` end of the slip-jump test as
+    ``variant`` (:data:`VARIANTS`): the holdout family's (parts A, B) or, in part C, a
+    tuning family's (``seed`` = family index × 100 + seed)."""
     import concealed
-    import holdout_family as hf
+    from slip_jump_symmetric import diagnose_flagged, slip_fields
 
-    from stictionbench.diagnosis import diagnose, hammerstein, load_model
-    from stictionbench.io import read_recording
-
-    default = hammerstein.J0_NUISANCE
-    hammerstein.J0_NUISANCE = VARIANTS[variant]
-    with tempfile.TemporaryDirectory() as tmp:
-        if part == "C":  # seed = family index × 100 + seed
-            fam = concealed.FAMILIES[seed // 100]
-            job = concealed.generate(cls, level, seed % 100, Path(tmp), fam)
-            job["valve_model"] = fam
-        else:
-            job = hf.generate(cls, level, seed, Path(tmp))
-        d = diagnose(read_recording(job["csv"]), load_model(job["model"]))
-    hammerstein.J0_NUISANCE = default
-    h = d.details.get("hammerstein") or {}
-    t = d.tests.get("slip_jump_zero", {})
+    family = concealed.FAMILIES[seed // 100] if part == "C" else "holdout"
+    job, d = diagnose_flagged(family, cls, level, seed % 100 if part == "C" else seed,
+                              {"J0_NUISANCE": VARIANTS[variant]})
+    f = slip_fields(d)
     return {"part": part, "class": cls, "level": level, "seed": seed, "variant": variant,
-            "valve_model": job["valve_model"], "stop_rule": h.get("stop_rule"),
-            "S": h.get("S"), "J": h.get("J"),
-            "slip_jump_stat": t.get("statistic"), "slip_jump_p": t.get("p_value"),
-            "pick": d.missing_physics}
+            "valve_model": family if part == "C" else job["valve_model"],
+            **{k: f[k] for k in ("stop_rule", "S", "J", "slip_jump_stat", "slip_jump_p",
+                                 "pick")}}
 
 
 def table(df: pd.DataFrame) -> pd.DataFrame:

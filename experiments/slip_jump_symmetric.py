@@ -52,30 +52,48 @@ VARIANTS = {"shipped": (False, False), "symmetric": (True, True)}
 ALPHA = 0.05
 
 
-def case(family: str, cls: str, level: int, seed: int, variant: str) -> dict:
-    """One recording diagnosed with its model under ``variant``'s flags (set on every
-    call and restored: a worker keeps the module state of its previous task)."""
+def diagnose_flagged(family: str, cls: str, level: int, seed: int,
+                     flags: dict[str, bool]) -> tuple[dict, object]:
+    """One recording (the holdout family's, or a tuning family's by name) diagnosed with its
+    model, :mod:`stictionbench.diagnosis.hammerstein`'s candidate ``flags`` set for the call
+    and restored after it (a worker keeps the module state of its previous task).
+    Returns ``(job, diagnosis)``."""
     import concealed
     import holdout_family as hf
 
     from stictionbench.diagnosis import diagnose, hammerstein, load_model
     from stictionbench.io import read_recording
 
-    saved = hammerstein.J0_NUISANCE, hammerstein.J0_RESTART
-    hammerstein.J0_NUISANCE, hammerstein.J0_RESTART = VARIANTS[variant]
+    saved = {k: getattr(hammerstein, k) for k in flags}
+    for k, v in flags.items():
+        setattr(hammerstein, k, v)
     try:
         with tempfile.TemporaryDirectory() as tmp:
             job = (hf.generate(cls, level, seed, Path(tmp)) if family == "holdout" else
                    concealed.generate(cls, level, seed, Path(tmp), family))
             d = diagnose(read_recording(job["csv"]), load_model(job["model"]))
     finally:
-        hammerstein.J0_NUISANCE, hammerstein.J0_RESTART = saved
+        for k, v in saved.items():
+            setattr(hammerstein, k, v)
+    return job, d
+
+
+def slip_fields(d) -> dict:
+    """The fitted valve and the test of ``J = 0`` of a diagnosis, and its verdict."""
     h = d.details.get("hammerstein") or {}
     t = d.tests.get("slip_jump_zero", {})
-    return {"family": family, "class": cls, "level": level, "seed": seed, "variant": variant,
-            "S": h.get("S"), "J": h.get("J"), "stop_rule": h.get("stop_rule"),
+    return {"S": h.get("S"), "J": h.get("J"), "stop_rule": h.get("stop_rule"),
             "slip_jump_stat": t.get("statistic"), "slip_jump_p": t.get("p_value"),
             "pick": d.missing_physics}
+
+
+def case(family: str, cls: str, level: int, seed: int, variant: str) -> dict:
+    """One recording diagnosed with its model under ``variant``'s flags."""
+    nuisance, restart = VARIANTS[variant]
+    _, d = diagnose_flagged(family, cls, level, seed,
+                            {"J0_NUISANCE": nuisance, "J0_RESTART": restart})
+    return {"family": family, "class": cls, "level": level, "seed": seed, "variant": variant,
+            **slip_fields(d)}
 
 
 def tasks() -> list[tuple]:

@@ -392,7 +392,7 @@ def _profile(crit: _Criterion, p: tuple, v_min: float, which: str,
     est = J if which == "J" else S
     unit = max(est, 0.05 * S)
     if which == "J":
-        v0 = _dead_band_variance(crit, p) if J0_NUISANCE and crit.fixed else math.inf
+        v0 = _dead_band_fit(crit, p)[0] if J0_NUISANCE and crit.fixed else math.inf
         v0 = min(v0, crit.dead_band_v)
         stat0 = min(stat(0.0), n * math.log(max(v0, 1e-300) / v_min))
     else:
@@ -418,7 +418,7 @@ def _profile(crit: _Criterion, p: tuple, v_min: float, which: str,
 
 
 #: the ``J = 0`` end of the slip-jump test also re-optimises the nuisance parameters
-#: (:func:`_dead_band_variance`; with a given model only); False, the default: the
+#: (:func:`_dead_band_fit`; with a given model only); False, the default: the
 #: process held at the valve's estimate and ``S`` scanned around the fitted ``S`` only.
 #: ``experiments/slip_jump_nuisance.py`` scored it: its criterion, stated before the run on
 #: the holdout family's blind blocks, was met by one verdict, but on the three tuning
@@ -427,11 +427,6 @@ def _profile(crit: _Criterion, p: tuple, v_min: float, which: str,
 #: one-sided refit exposes a search failure of the alternative as "no slip jump". Not
 #: adopted; both ends searched with the same effort is the lead
 J0_NUISANCE = False
-
-
-def _dead_band_variance(crit: _Criterion, p: tuple) -> float:
-    """Innovation variance of :func:`_dead_band_fit`."""
-    return _dead_band_fit(crit, p)[0]
 
 
 def _dead_band_fit(crit: _Criterion, p: tuple) -> tuple[float, tuple]:
