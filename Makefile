@@ -84,13 +84,15 @@ concealed: venv
 	$(BIN)/python experiments/stiction_controller_rate.py
 	$(BIN)/python experiments/verdict_stability.py --trim 7 --jobs 2
 
-# the holdout family pooled over its seed blocks at the current comparison band (10 x 216
-# recordings, re-run by the shipped code; block CSVs cached in .cache/holdout_blocks), then
-# the closed-loop parametric bootstrap of its false alarms, the comparison band's filter
+# the holdout family pooled over its seed blocks at the current comparison band (18 x 216
+# recordings, re-run by the shipped code; block CSVs cached in .cache/holdout_blocks), the
+# NRMSE gate above its reference re-decided on the seen blocks, then the closed-loop
+# parametric bootstrap of its false alarms, the comparison band's filter
 # varied (zero-phase against causal) and its magnitude varied apart from its phase
 # (about 105 minutes on 2 cores)
 holdout-pooled: venv
 	$(BIN)/python experiments/holdout_pooled.py --jobs 2
+	$(BIN)/python experiments/gate_above_reference.py
 	$(BIN)/python experiments/slip_jump_calibration.py
 	$(BIN)/python experiments/bootstrap_null.py --jobs 2
 	$(BIN)/python experiments/causal_filter.py --jobs 2

@@ -68,14 +68,21 @@ KEEP = ["name", "class", "level", "seed", "effect", "noise_frac", "predicted_def
         "band_dof", "valve_model", "slip_jump_p"]
 
 
-def block(first: int, cache: Path, jobs: int) -> pd.DataFrame:
-    """One block's rows: read from ``cache`` or run by ``holdout_family.main``."""
+def block_rows(first: int, cache: Path, jobs: int) -> pd.DataFrame:
+    """One block's stored diagnoses, every column (the evidence that
+    ``concealed.decide`` re-decides included): read from ``cache`` or run by
+    ``holdout_family.main``."""
     csv = cache / f"h{first}.csv"
     if not csv.is_file():
         hf.main(["--seeds", str(SEEDS), "--none-seeds", str(NONE_SEEDS), "--first-seed",
                  str(first), "--name", f"h{first}", "--jobs", str(jobs), "--out",
                  str(cache)])
-    df = pd.read_csv(csv)
+    return pd.read_csv(csv)
+
+
+def block(first: int, cache: Path, jobs: int) -> pd.DataFrame:
+    """One block's rows as the report keeps them (:data:`KEEP`)."""
+    df = block_rows(first, cache, jobs)
     df = df[[c for c in KEEP if c in df]].copy()
     df["block"] = first
     return df
