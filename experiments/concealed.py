@@ -197,13 +197,15 @@ def with_slow_line(row: pd.Series, pick: str, alpha: float, min_improvement: flo
                              else None, alpha=alpha, min_improvement=min_improvement)
 
 
-def main_band_gate(row: pd.Series, min_improvement: float) -> float:
+def main_band_gate(row: pd.Series, min_improvement: float,
+                   gate: Callable[[float, float], float] = scaled_gate) -> float:
     """The main band's NRMSE gate of one stored row: ``min_improvement`` scaled by the
-    row's in-band degrees of freedom where they were stored (a given model)."""
+    row's in-band degrees of freedom where they were stored (a given model), by ``gate``
+    (the package's :func:`~stictionbench.diagnosis.evidence.scaled_gate` unless varied)."""
     dof = row.get("band_dof")
     if dof is None or not isinstance(dof, int | float) or not math.isfinite(dof):
         return min_improvement
-    return scaled_gate(min_improvement, float(dof))
+    return gate(min_improvement, float(dof))
 
 
 def with_range_fallback(row: pd.Series, pick: str,
@@ -228,15 +230,16 @@ def after_main_band(row: pd.Series, pick: str, alpha: float, min_improvement: fl
 
 
 def decide(row: pd.Series, alpha: float, min_improvement: float,
-           alpha_full: float = FULL_DATA_ALPHA) -> str:
+           alpha_full: float = FULL_DATA_ALPHA,
+           gate: Callable[[float, float], float] = scaled_gate) -> str:
     """The shipped decision re-applied to one stored row at other thresholds: the main
     band's rule (:func:`~stictionbench.diagnosis.evidence.select`), then the second
     look and the full-data test of the range hypotheses (:func:`after_main_band`). The
     main band's NRMSE gate is scaled by the stored in-band degrees of freedom
     (:func:`~stictionbench.diagnosis.evidence.scaled_gate`; rows stored before they
-    were, and model-free rows, keep ``min_improvement``)."""
+    were, and model-free rows, keep ``min_improvement``; ``gate`` varies that law)."""
     pick = select(json.loads(row["evidence"]), row["slip_jump_p"], alpha=alpha,
-                  min_improvement=main_band_gate(row, min_improvement),
+                  min_improvement=main_band_gate(row, min_improvement, gate),
                   own_resolution=own_resolution_of(row),
                   cycle_reproduced=bool(row.get("cycle_reproduced", False)))
     return after_main_band(row, pick, alpha, min_improvement, alpha_full)
