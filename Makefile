@@ -57,8 +57,10 @@ real: venv
 	$(BIN)/python experiments/limit_cycles.py
 	$(BIN)/python experiments/isdb_priors.py --data $(DATA)/isdb
 	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
+	$(BIN)/python experiments/two_stage_isdb.py
 	$(BIN)/python experiments/simulated_loops.py
 	$(BIN)/python experiments/flow_loops.py
+	$(BIN)/python experiments/yamashita_evidence.py --data $(DATA)
 	$(BIN)/python experiments/compression.py --data $(DATA)
 	$(BIN)/python experiments/isdb_noise_model.py --data $(DATA)/isdb
 	$(BIN)/python experiments/invariance.py --data $(DATA)/isdb $(DATA)/plant

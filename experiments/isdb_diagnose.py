@@ -182,7 +182,9 @@ def main(argv=None) -> int:
         "very valve that sticks, and these records have no set-point steps: OP is the "
         "controller's answer to the unmeasured load, which biases the identified process. "
         "Several records are also mean-removed or heavily filtered. The batch verdicts "
-        "(`reports/real/isdb/`) use the PV–OP cycle instead.", "",
+        "(`reports/real/isdb/`) use the PV–OP cycle instead; "
+        "[two_stage_isdb.md](../two_stage_isdb.md) asks what detection by those methods "
+        "followed by this identification's S and J would name.", "",
         *_priors_check(), *_speed_check(), ""]
     write_text(out / "summary.md", "\n".join(lines))
     write_text(out / "summary.csv", df.to_csv(index=False, lineterminator="\n"))

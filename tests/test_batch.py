@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 import stictionbench as sb
@@ -155,6 +156,22 @@ def test_without_a_labels_table_the_flow_methods_read_the_tag(loops, tmp_path):
     meth = {r["name"]: r["methods"] for r in json.loads(out.read_text())["recordings"]}
     assert meth["loop7"]["kano"]["reason"] == "MV not recorded and not a flow loop"
     assert meth["2411FIC20102_0609"]["kano"]["reason"] != "MV not recorded and not a flow loop"
+    assert "evidence" not in meth["loop7"]["yamashita"]   # undecided: nothing to rest on
+
+
+def test_yamashita_evidence_reaches_the_batch_json(tmp_path):
+    # a flow loop whose valve sticks (PV, the flow, moves in steps while OP ramps):
+    # Yamashita's verdict comes with the number of moving samples it rests on
+    t = np.arange(1500.0)
+    op = 50.0 + 10.0 * np.abs(((t / 150.0) % 2.0) - 1.0) * 2.0 - 10.0
+    pv = np.round(op / 4.0) * 4.0 + 0.01 * np.sin(t)
+    sb.Recording.from_arrays(t, pv, op, warn=False).to_frame()[["t", "PV", "OP"]].to_csv(
+        tmp_path / "FIC101.csv", index=False)
+    out = tmp_path / "b.json"
+    assert main(["batch", str(tmp_path), "--json", str(out), "--jobs", "1"]) == 0
+    yam = json.loads(out.read_text())["recordings"][0]["methods"]["yamashita"]
+    assert yam["verdict"] == "stiction", yam
+    assert "moving samples" in yam["evidence"] and "95 %" in yam["evidence"]
 
 
 def _rewritten(rec, how):

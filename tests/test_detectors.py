@@ -293,6 +293,21 @@ def test_yamashita_pattern_times_add_up():
     assert len(times) == 9 and sum(times) == N - 1
 
 
+def test_yamashita_reports_what_its_index_rests_on():
+    """ρ's moving samples and interval: a ratio of two moves is not a ratio of two
+    hundred, though the published rule decides both the same way."""
+    t = np.arange(400.0)
+    op = np.where(t < 200, 0.0, 1.0) + np.where(t < 300, 0.0, 1.0)   # OP moves twice
+    flat = _rec(np.zeros(400), op)                                   # PV never moves
+    few = make("yamashita", flow_loop=True).estimate(flat)
+    assert few.decision is True and few.diagnostics["moving"] == 2
+    lo, hi = few.diagnostics["rho_interval"]
+    assert hi - lo > 0.6 and "from 2 moving samples" in few.diagnostics["evidence"]
+    many = make("yamashita").estimate(_stiction_waves())
+    lo, hi = many.diagnostics["rho_interval"]
+    assert many.diagnostics["moving"] > 100 and 0.25 < lo <= many.value <= hi
+
+
 # --------------------------------------------------------------------------- all
 @pytest.mark.parametrize("name, key, bad", [
     ("horch", "odd_threshold", 4.0), ("horch", "integrating", "no"),

@@ -14,6 +14,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..rates import wilson
 from ..recording import Recording
 from ..validation import Constraint, Interval, TypeOf
 from .base import EstimateResult
@@ -73,10 +74,15 @@ class Yamashita(StictionDetector):
     ``ρ = (τ_IS + τ_DS) / (τ_total − τ_SS)``,
 
     the share of the time in which something moves that OP moves while the valve stays
-    put. Published rule: ``ρ > 0.25`` stiction, else no stiction. Inconclusive when
-    OP's range is within ``op_tolerance`` ("OP constant": movements inside a good
-    valve's 1 % dead band cannot tell), when nothing moves ("no movement") or when MV
-    is not recorded and the loop is not a flow loop ("not a flow loop"); in a flow loop
+    put. Published rule: ``ρ > 0.25`` stiction, else no stiction. The verdict is the
+    published rule's; its diagnostics add how many moving samples ``ρ`` rests on and its
+    Wilson 95 % interval (``moving``, ``rho_interval``, in words ``evidence``: on noisy
+    records sampled slowly, few differences leave the noise band — 2 to 14 of 750 on
+    the refinery's stiction flow loop — and ``ρ`` is then a ratio of small counts; the
+    samples are not independent, so the interval understates the uncertainty).
+    Inconclusive when OP's range is within ``op_tolerance`` ("OP constant": movements
+    inside a good valve's 1 % dead band cannot tell), when nothing moves ("no movement")
+    or when MV is not recorded and the loop is not a flow loop ("not a flow loop"); in a flow loop
     (``flow_loop=True``) PV stands in for a missing MV.
 
     The steady band (``tolerance = 0.1`` and the 3-σ noise floor) and ``op_tolerance``
@@ -136,8 +142,12 @@ class Yamashita(StictionDetector):
         moving = x.size - 1 - times["SS"]
         if moving <= 0:
             return self._result(nan, None, "no movement", valve=valve, **rule)
-        rho = (times["IS"] + times["DS"]) / moving
+        stuck = times["IS"] + times["DS"]
+        rho = stuck / moving
         decision = rho > self.threshold
+        lo, hi = wilson(stuck, moving)
         return self._result(
             rho, decision, "valve steady while OP moves" if decision else "valve moves with OP",
-            valve=valve, **{f"time_{k}": v for k, v in times.items()}, **rule)
+            valve=valve, moving=int(moving), rho_interval=(lo, hi),
+            evidence=f"ρ = {rho:.2f} from {moving} moving samples, 95 % [{lo:.2f}, {hi:.2f}]",
+            **{f"time_{k}": v for k, v in times.items()}, **rule)

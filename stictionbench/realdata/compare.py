@@ -131,6 +131,9 @@ class Call:
     verdict: str
     reason: str
     value: float | None = None
+    #: what the verdict rests on, in words, where the method says (e.g. Yamashita's
+    #: ``ρ`` with its number of moving samples and interval); empty otherwise
+    evidence: str = ""
 
 
 def _from_result(res) -> Call:
@@ -138,7 +141,7 @@ def _from_result(res) -> Call:
     v = d.get("verdict") or {True: "stiction", False: "no_stiction"}.get(res.decision,
                                                                           "inconclusive")
     val = float(res.value) if res.value is not None and math.isfinite(res.value) else None
-    return Call(v, str(d.get("reason", "")), val)
+    return Call(v, str(d.get("reason", "")), val, str(d.get("evidence", "")))
 
 
 def _detector(name: str, params: Callable[[str], dict[str, Any]] | None = None,
@@ -316,7 +319,7 @@ def window_calls(rec: Recording, name: str,
 
 def _as_call(c: Call | dict[str, Any]) -> Call:
     return c if isinstance(c, Call) else Call(str(c["verdict"]), str(c.get("reason", "")),
-                                             c.get("value"))
+                                             c.get("value"), str(c.get("evidence", "")))
 
 
 def binary(label: Any) -> str | None:

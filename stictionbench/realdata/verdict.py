@@ -191,7 +191,8 @@ def judge(rec: Recording, name: str, consensus=None, *,
     entry = _base_entry(rec, name, q)
     entry["holds_released"] = released
     entry["methods"] = {m: {"verdict": calls[m].verdict, "reason": calls[m].reason,
-                            "value": calls[m].value}
+                            "value": calls[m].value,
+                            **({"evidence": calls[m].evidence} if calls[m].evidence else {})}
                         for m in calls if hasattr(calls[m], "verdict")}
     if not q.usable:
         entry.update(verdict="unusable", consensus="unusable", confidence=1.0,
