@@ -60,6 +60,7 @@ real: venv
 	$(BIN)/python experiments/two_stage_isdb.py
 	$(BIN)/python experiments/simulated_loops.py
 	$(BIN)/python experiments/flow_loops.py
+	$(BIN)/python experiments/level_loops.py
 	$(BIN)/python experiments/yamashita_evidence.py --data $(DATA)
 	$(BIN)/python experiments/compression.py --data $(DATA)
 	$(BIN)/python experiments/isdb_noise_model.py --data $(DATA)/isdb

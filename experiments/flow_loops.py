@@ -91,18 +91,29 @@ def draw(kind: str, i: int) -> tuple[list[str], dict]:
           f"controller.ti={ti:.6g}", f"controller.sample_time={rate:g}", "sensor=noisy",
           f"sensor.time_constant={lag:g}", f"sensor.noise_std={noise:.6g}",
           "setpoint=constant"]
+    return ov + fault_overrides(kind, i, rng, p, BANDS, (20.0, 300.0)), p
+
+
+def fault_overrides(kind: str, i: int, rng: np.random.Generator, p: dict,
+                    bands: tuple[float, ...], sine_periods: tuple[float, float]
+                    ) -> list[str]:
+    """The disturbance and valve overrides of loop ``i`` of ``kind`` (drawn from ``rng``
+    after the loop's process and PI; ``p`` gets the drawn values): a sinusoid of period
+    log-uniform in ``sine_periods`` on top of the load, or the load alone; a sticky
+    valve with ``S = bands[i % len(bands)]``, a dead band, or an ideal valve."""
+    load = p["load"]
     if kind == "sinusoid":
-        amp, per = float(rng.uniform(0.5, 5.0)), float(np.exp(rng.uniform(np.log(20),
-                                                                          np.log(300))))
-        ov += ["disturbance=sinusoidal", f"disturbance.amplitude={amp:.6g}",
-               f"disturbance.period={per:.6g}", f"disturbance.load_std={load:.6g}",
-               "disturbance.load_time_constant=300.0"]
+        amp = float(rng.uniform(0.5, 5.0))
+        per = float(np.exp(rng.uniform(np.log(sine_periods[0]), np.log(sine_periods[1]))))
+        ov = ["disturbance=sinusoidal", f"disturbance.amplitude={amp:.6g}",
+              f"disturbance.period={per:.6g}", f"disturbance.load_std={load:.6g}",
+              "disturbance.load_time_constant=300.0"]
         p.update(sine_amplitude=amp, sine_period=per)
     else:
-        ov += ["disturbance=load", f"disturbance.load_std={load:.6g}",
-               "disturbance.load_time_constant=300.0"]
+        ov = ["disturbance=load", f"disturbance.load_std={load:.6g}",
+              "disturbance.load_time_constant=300.0"]
     if kind in STICKY:
-        S = float(BANDS[i % len(BANDS)])
+        S = float(bands[i % len(bands)])
         J = S * float(rng.uniform(0.25, 1.0))
         ov += [f"valve={kind}", f"valve.S={S:g}", f"valve.J={J:.6g}"]
         p.update(S=S, J=J)
@@ -112,27 +123,33 @@ def draw(kind: str, i: int) -> tuple[list[str], dict]:
         p.update(deadband=d)
     else:
         ov += ["valve=linear"]
-    return ov, p
+    return ov
 
 
-def one_loop(kind: str, i: int, consensus: Consensus, set_to: dict | None = None) -> dict:
+def one_loop(kind: str, i: int, consensus: Consensus, set_to: dict | None = None, *,
+             drawn: tuple[list[str], dict] | None = None, loop_type: str = "F",
+             seed0: int = SEED0, duration: float = DURATION,
+             sample_time: float = 1.0) -> dict:
     """Every published method's call on flow loop ``i`` of ``kind``, and the
     ``consensus`` of their calls; ``set_to`` replaces drawn values (``load``, ``noise``)
-    for the controlled check."""
-    ov, p = draw(kind, i)
+    for the controlled check. ``drawn`` (overrides and parameters) and ``loop_type``
+    replace this module's flow-loop draw for another kind of loop, simulated from
+    ``seed0 + i`` for ``duration`` seconds recorded every ``sample_time``
+    (``experiments/level_loops.py``)."""
+    ov, p = drawn if drawn is not None else draw(kind, i)
     for key, value in (set_to or {}).items():
         tag = CONTROLLED[key]
         ov = [f"{tag}={value:g}" if o.startswith(tag + "=") else o for o in ov]
         p[key] = value
-    r = sb.simulate("linear", duration=DURATION, seed=SEED0 + i, sample_time=1.0,
+    r = sb.simulate("linear", duration=duration, seed=seed0 + i, sample_time=sample_time,
                     overrides=ov)
     label = "stiction" if kind in STICKY else "no_stiction"
     rec = sb.Recording.from_arrays(r.t, r.PV, r.OP, SP=r.SP, warn=False,
-                                   meta={"label": label, "loop_type": "F"})
+                                   meta={"label": label, "loop_type": loop_type})
     out = dict(p, label=label, i=i, pv_std=float(np.std(r.PV)))
     for m in DETECTORS:
         try:
-            c = METHODS[m](rec, "F")
+            c = METHODS[m](rec, loop_type)
             out[m], out[m + "_reason"] = c.verdict, c.reason
         except Exception as exc:  # noqa: BLE001 - a method failing is a result to count
             out[m], out[m + "_reason"] = "inconclusive", " ".join(str(exc).split())[:60]
@@ -183,7 +200,8 @@ def overall(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def figure(df: pd.DataFrame, path: Path) -> None:
+def figure(df: pd.DataFrame, path: Path,
+           title: str = "Published detectors on randomised simulated flow loops") -> None:
     """Detection against the stick band (left) and false alarms by healthy cause (right),
     with Wilson 95 % intervals."""
     fig, (ax, bx) = new_figure(1, 2, figsize=(11.0, 4.2))
@@ -214,7 +232,7 @@ def figure(df: pd.DataFrame, path: Path) -> None:
     bx.set_xlabel("healthy loops, by cause")
     bx.set_ylabel("healthy loops: stiction named (false alarm)")
     bx.set_ylim(0, 1.02)
-    fig.suptitle("Published detectors on randomised simulated flow loops (Wilson 95 %)")
+    fig.suptitle(f"{title} (Wilson 95 %)")
     save_png(fig, path)
 
 
