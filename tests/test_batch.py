@@ -214,3 +214,7 @@ def test_a_tie_of_the_deciding_methods_is_noted(loops):
     agreed = judge(rec, "tight", Consensus((yes,), 0.5, 1), diagnose="none")
     assert agreed["confidence"] == 1.0
     assert not any(n.startswith("a tie") for n in agreed["notes"])
+    # one deciding method: its confidence of 1.0 is said to be that method's alone
+    assert any(n.startswith(f"the verdict rests on one method ({yes})")
+               for n in agreed["notes"])
+    assert not any(n.startswith("the verdict rests on one") for n in tie["notes"])
