@@ -270,13 +270,19 @@ def controlled(rows: list[dict]) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
-def trained_here(df: pd.DataFrame, real: Path) -> tuple[Consensus, pd.DataFrame]:
+def consensus_text(c: Consensus) -> str:
+    """``"horch + he, share ≥ 0.67, ≥ 1 vote(s)"``."""
+    return f"{' + '.join(c.methods)}, share ≥ {c.threshold:.2f}, ≥ {c.min_votes} vote(s)"
+
+
+def trained_here(df: pd.DataFrame, real: Path, name: str = "these simulated flow loops"
+                 ) -> tuple[Consensus, pd.DataFrame]:
     """The consensus fitted on these simulated loops (:func:`~stictionbench.realdata.
     consensus.fit`, the search that trains the shipped one) and its scores here
     (in-sample) and on the real loops of ``real/comparison_<dataset>.csv`` (written by
     ``stictionbench compare``; out of sample: no real loop took part in the fit)."""
     c = fit(df)
-    rows = [{"scored_on": "these simulated flow loops", "out_of_sample": False,
+    rows = [{"scored_on": name, "out_of_sample": False,
              **score(c, df)}]
     for f in sorted(real.glob("comparison_*.csv")):
         loops = pd.read_csv(f).set_index("loop")
@@ -346,8 +352,8 @@ def main(argv: list[str] | None = None) -> int:
         "The same search that trains the shipped consensus on the real loops "
         "(`stictionbench.realdata.consensus.fit`: method subset, share and votes by "
         "balanced accuracy), run on these simulated loops instead: "
-        f"{' + '.join(sim_c.methods)}, share ≥ {sim_c.threshold:.2f}, ≥ {sim_c.min_votes} "
-        "vote(s). Its scores on the real loops are out of sample (the real verdicts come "
+        f"{consensus_text(sim_c)}. Its scores on the real loops are out of sample (the real "
+        "verdicts come "
         "from `stictionbench compare`, the same calls as in "
         "[comparison.md](comparison.md)); balanced accuracy by loop, an inconclusive "
         "verdict counted as not flagged.", "",
