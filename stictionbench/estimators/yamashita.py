@@ -78,12 +78,13 @@ class Yamashita(StictionDetector):
     published rule's; its diagnostics add how many moving samples ``ρ`` rests on and its
     Wilson 95 % interval (``moving``, ``rho_interval``, in words ``evidence``: on noisy
     records sampled slowly, few differences leave the noise band — 2 to 14 of 750 on
-    the refinery's stiction flow loop — and ``ρ`` is then a ratio of small counts; the
-    samples are not independent, so the interval understates the uncertainty).
-    Inconclusive when OP's range is within ``op_tolerance`` ("OP constant": movements
-    inside a good valve's 1 % dead band cannot tell), when nothing moves ("no movement")
-    or when MV is not recorded and the loop is not a flow loop ("not a flow loop"); in a flow loop
-    (``flow_loop=True``) PV stands in for a missing MV.
+    the refinery's stiction flow loop, ``reports/real/yamashita_evidence.md`` — and ``ρ``
+    is then a ratio of small counts; the samples are not independent, so the interval
+    understates the uncertainty). Inconclusive when OP's range is within
+    ``op_tolerance`` ("OP constant": movements inside a good valve's 1 % dead band
+    cannot tell), when nothing moves ("no movement") or when MV is not recorded and the
+    loop is not a flow loop ("not a flow loop"); in a flow loop (``flow_loop=True``) PV
+    stands in for a missing MV.
 
     The steady band (``tolerance = 0.1`` and the 3-σ noise floor) and ``op_tolerance``
     are our a-priori choices (as in :class:`~.kano.Kano`); the paper sets the band from

@@ -205,12 +205,12 @@ def judge(rec: Recording, name: str, consensus=None, *,
                                       entry.get("ellipse_axis_ratio"),
                                       "reason": "first-release ellipse rule (in-sample)"}
     v, why = c.decide({m: calls[m].verdict for m in c.methods})
-    votes = [calls[m].verdict for m in c.methods if calls[m].verdict in VERDICTS[:2]]
+    deciding = [m for m in c.methods if calls[m].verdict in VERDICTS[:2]]
+    votes = [calls[m].verdict for m in deciding]
     entry.update(verdict="stiction" if v == "stiction" else "no_stiction", consensus=v,
                  reason=why)
     final = entry["verdict"]
     entry["confidence"] = (sum(x == final for x in votes) / len(votes)) if votes else 0.5
-    deciding = [m for m in c.methods if calls[m].verdict in VERDICTS[:2]]
     entry["notes"] = (period_notes(entry.get("oscillation_period_s")) + tie_notes(votes)
                       + lone_notes(deciding))
     if diagnose == "all" or (diagnose == "flagged" and final == "stiction"):
