@@ -81,17 +81,29 @@ def draw(kind: str, i: int) -> tuple[list[str], dict]:
     ti = float(np.exp(rng.uniform(np.log(2.0), np.log(30.0))))
     if kind == "tight":
         kc, ti = float(rng.uniform(1.5, 3.0)) / K, float(rng.uniform(0.5, 2.0))
-    noise = float(np.exp(rng.uniform(np.log(0.01), np.log(0.3))))
-    lag = float(rng.choice([0.0, 0.5, 2.0]))
-    load = float(rng.uniform(0.0, 1.0))
     p = {"kind": kind, "K": K, "tau": tau, "theta": theta, "pi_period": rate, "kc": kc,
-         "ti": ti, "noise": noise, "sensor_lag": lag, "load": load, "S": 0.0, "J": 0.0}
-    ov = [f"process.gain={K:.6g}", f"process.time_constant={tau:.6g}",
-          f"process.dead_time={theta:.6g}", f"controller.kc={kc:.6g}",
-          f"controller.ti={ti:.6g}", f"controller.sample_time={rate:g}", "sensor=noisy",
-          f"sensor.time_constant={lag:g}", f"sensor.noise_std={noise:.6g}",
-          "setpoint=constant"]
-    return ov + fault_overrides(kind, i, rng, p, BANDS, (20.0, 300.0)), p
+         "ti": ti}
+    return loop_draw(kind, i, rng, p, (K, tau, theta), BANDS, (20.0, 300.0))
+
+
+def loop_draw(kind: str, i: int, rng: np.random.Generator, p: dict,
+              process: tuple[float, float, float], bands: tuple[float, ...],
+              sine_periods: tuple[float, float]) -> tuple[list[str], dict]:
+    """The overrides of loop ``i`` of ``kind`` and its parameters ``p``, once its process
+    (``process``: gain, time constant, dead time) and PI (``p``: ``pi_period``, ``kc``,
+    ``ti``) are drawn: the transmitter's noise and lag and the load are drawn next from
+    ``rng``, then the disturbance and valve (:func:`fault_overrides`); the set point is
+    constant. Shared by the flow, level and pressure loops' draws."""
+    gain, tau, theta = process
+    p.update(noise=float(np.exp(rng.uniform(np.log(0.01), np.log(0.3)))),
+             sensor_lag=float(rng.choice([0.0, 0.5, 2.0])), load=float(rng.uniform(0.0, 1.0)),
+             S=0.0, J=0.0)
+    ov = [f"process.gain={gain:.6g}", f"process.time_constant={tau:.6g}",
+          f"process.dead_time={theta:.6g}", f"controller.kc={p['kc']:.6g}",
+          f"controller.ti={p['ti']:.6g}", f"controller.sample_time={p['pi_period']:g}",
+          "sensor=noisy", f"sensor.time_constant={p['sensor_lag']:g}",
+          f"sensor.noise_std={p['noise']:.6g}", "setpoint=constant"]
+    return ov + fault_overrides(kind, i, rng, p, bands, sine_periods), p
 
 
 def fault_overrides(kind: str, i: int, rng: np.random.Generator, p: dict,

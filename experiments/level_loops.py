@@ -52,8 +52,8 @@ from flow_loops import (  # noqa: E402
     BANDS,
     HEALTHY,
     STICKY,
-    fault_overrides,
     figure,
+    loop_draw,
     one_loop,
     overall,
     summarise,
@@ -83,19 +83,10 @@ def draw(kind: str, i: int) -> tuple[list[str], dict]:
     kc, ti = 1.0 / (k * (lam + theta)), 4.0 * (lam + theta)
     if kind == "tight":
         ti = 0.5 * (lam + theta)
-    noise = float(np.exp(rng.uniform(np.log(0.01), np.log(0.3))))
-    lag = float(rng.choice([0.0, 0.5, 2.0]))
-    load = float(rng.uniform(0.0, 1.0))
     p = {"kind": kind, "k_int": k, "theta": theta, "lambda": lam, "pi_period": rate,
-         "kc": kc, "ti": ti, "noise": noise, "sensor_lag": lag, "load": load,
-         "S": 0.0, "J": 0.0}
-    ov = [f"process.gain={k * TAU_INTEGRATOR:.6g}",
-          f"process.time_constant={TAU_INTEGRATOR:g}", f"process.dead_time={theta:.6g}",
-          f"controller.kc={kc:.6g}", f"controller.ti={ti:.6g}",
-          f"controller.sample_time={rate:g}", "sensor=noisy",
-          f"sensor.time_constant={lag:g}", f"sensor.noise_std={noise:.6g}",
-          "setpoint=constant"]
-    return ov + fault_overrides(kind, i, rng, p, LEVEL_BANDS, (100.0, 1500.0)), p
+         "kc": kc, "ti": ti}
+    return loop_draw(kind, i, rng, p, (k * TAU_INTEGRATOR, TAU_INTEGRATOR, theta),
+                     LEVEL_BANDS, (100.0, 1500.0))
 
 
 def level_loop(kind: str, i: int, consensus: Consensus) -> dict:

@@ -49,7 +49,7 @@ from flow_loops import (  # noqa: E402
     HEALTHY,
     STICKY,
     consensus_text,
-    fault_overrides,
+    loop_draw,
     one_loop,
     trained_here,
 )
@@ -75,19 +75,10 @@ def draw_pressure(kind: str, i: int) -> tuple[list[str], dict]:
     kc, ti = tau / (K * (lam + theta)), tau
     if kind == "tight":
         kc, ti = 3.0 * kc, tau / 4.0
-    noise = float(np.exp(rng.uniform(np.log(0.01), np.log(0.3))))
-    lag = float(rng.choice([0.0, 0.5, 2.0]))
-    load = float(rng.uniform(0.0, 1.0))
     p = {"kind": kind, "K": K, "tau": tau, "theta": theta, "lambda": lam,
-         "pi_period": rate, "kc": kc, "ti": ti, "noise": noise, "sensor_lag": lag,
-         "load": load, "S": 0.0, "J": 0.0}
-    ov = [f"process.gain={K:.6g}", f"process.time_constant={tau:.6g}",
-          f"process.dead_time={theta:.6g}", f"controller.kc={kc:.6g}",
-          f"controller.ti={ti:.6g}", f"controller.sample_time={rate:g}", "sensor=noisy",
-          f"sensor.time_constant={lag:g}", f"sensor.noise_std={noise:.6g}",
-          "setpoint=constant"]
-    return ov + fault_overrides(kind, i, rng, p, level_loops.LEVEL_BANDS,
-                                (100.0, 1500.0)), p
+         "pi_period": rate, "kc": kc, "ti": ti}
+    return loop_draw(kind, i, rng, p, (K, tau, theta), level_loops.LEVEL_BANDS,
+                     (100.0, 1500.0))
 
 
 #: loop type -> the draw of loop ``i`` of a kind
