@@ -56,6 +56,16 @@ def test_requests_that_cannot_run_are_refused_before_fitting():
         diagnose(rec, None, slip_jump_bootstrap=MIN_B)
 
 
+@pytest.mark.parametrize("model", [MODEL, None], ids=["model", "model-free"])
+def test_default_test_says_it_is_asymptotic(model):
+    """Without the bootstrap the slip-jump p-value is χ²₁, and the JSON says so, so no
+    reader takes it for a calibrated one (reports/concealed/slip_jump_calibration.md)."""
+    d = diagnose(_rec(valve="kano", valve__S=3.0, valve__J=1.5), model)
+    t = d.tests["slip_jump_zero"]
+    assert t["method"] == "chi2_asymptotic" and "p_asymptotic" not in t
+    assert t["df"] == 1 and 0.0 <= t["p_value"] <= 1.0
+
+
 def test_bootstrap_p_value_replaces_chi_square_in_the_decision():
     rec = _rec(valve="kano", valve__S=3.0, valve__J=1.5)
     d = diagnose(rec, MODEL, slip_jump_bootstrap=MIN_B, bootstrap_seed=1)

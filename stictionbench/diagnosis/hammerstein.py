@@ -44,7 +44,7 @@ from scipy.stats import chi2
 
 from ..errors import InputError
 from ..recording import Recording
-from .evidence import MIN_SLIP_FRACTION
+from .evidence import MIN_SLIP_FRACTION, SLIP_JUMP_ASYMPTOTIC
 from .noise import WHITE, NoiseModel, fit_noise_model, input_independence, ljung_box, lr_test
 from .openloop import fopdt_biquad, fopdt_coefficients, stiction_valve
 from .process import fit_fopdt
@@ -602,7 +602,7 @@ def _result(rec: Recording, crit: _Criterion, p: tuple, v_valve: float, v_lin: f
     tests = {
         "valve_vs_linear": lr_test(v_lin, v_valve, n, 3),
         "slip_jump_zero": {"statistic": stat_j, "p_value": float(chi2.sf(max(stat_j, 0), 1)),
-                           "df": 1},
+                           "df": 1, "method": SLIP_JUMP_ASYMPTOTIC},
         "whiteness": ljung_box(e),
         "independence_from_op": input_independence(e, u),
     }
