@@ -262,6 +262,12 @@ SEEN_FRESH = {
     32000: "drawn with 31000 (see 31000).",
     33000: "drawn with 31000 (see 31000).",
     34000: "drawn with 31000 (see 31000).",
+    35000: "drawn with 36000-38000 at 2ff1e80 as blind blocks with no candidate rule, "
+           "to narrow the blind estimate (`holdout_pooled.md`); the next rule change is "
+           "scored on 39000.",
+    36000: "drawn with 35000 (see 35000).",
+    37000: "drawn with 35000 (see 35000).",
+    38000: "drawn with 35000 (see 35000).",
     20000: "`slow_loops.py`'s healthy loops (seeds 20000-20023 of `none`, their speed "
            "varied); the other classes there are undrawn.",
 }

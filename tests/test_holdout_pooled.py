@@ -36,7 +36,9 @@ def _frame() -> pd.DataFrame:
                 rows.append({"name": f"{block}_{lvl}_{i}", "class": cls, "level": lvl,
                              "seed": block + i, "predicted_default": pred,
                              "band_dof": 20.0 if i % 2 else 150.0, "block": block,
-                             "effect": 0.0 if cls == "none" else 0.12 * i})
+                             "effect": 0.0 if cls == "none" else 0.12 * i,
+                             "noise_frac": (0.02 if i < 4 else 0.03) if lvl == 1
+                             else (0.04 if i < 4 else 0.09)})
     return pd.DataFrame(rows)
 
 
@@ -75,6 +77,21 @@ def test_seen_and_blind_false_alarms_are_compared_per_level():
     # level 2: the blind block's one `none` called physics, none in the seen block
     assert "seen blocks 0/2" in lines[1] and "blind blocks 1/2" in lines[1]
     assert "Fisher p = 1" in lines[1]
+
+
+def test_noise_bins_score_each_level_in_its_own_bins():
+    t = hp.by_noise(_frame()).set_index(["level", "PV noise, % of the set-point step"])
+    # every recording lands in one bin of its level's edges
+    assert int(t.recordings.sum()) == len(_frame())
+    assert set(t.index) == {(1, "1–2.5"), (1, "2.5–4"), (2, "3–5"), (2, "7.5–10")}
+    # level 2, low noise (i < 4): none 3/4 (the blind block's false alarm), stiction 4/4
+    low = t.loc[(2, "3–5")]
+    assert low["`none` called physics"].startswith("1/4")
+    assert low["of 16, classes weighted equally"].startswith("14.0")
+    # level 2, high noise (i ≥ 4): stiction 6/8 (i = 7 missed in both blocks), no none
+    high = t.loc[(2, "7.5–10")]
+    assert high["of 16, classes weighted equally"].startswith("12.0")
+    assert high["`none` called physics"].startswith("0/0")
 
 
 def test_the_detectability_table_leaves_none_out_and_bins_by_effect():
