@@ -415,15 +415,20 @@ def simulate(c: Case, rng: np.random.Generator) -> dict[str, np.ndarray]:
             "OP": out[:, 2]}
 
 
+def noise_rng(c: Case) -> np.random.Generator:
+    """The generator of case ``c``'s noise and load: seeded by its class, level and seed
+    only, so a case whose physics an experiment varies keeps the same noise and load."""
+    return np.random.default_rng([97, CLASSES.index(c.cls), c.level, c.seed, 1])
+
+
 def make_recording(cls: str, level: int, seed: int) -> tuple[Case, dict[str, np.ndarray]]:
     """Draw and simulate one holdout recording: ``(case, {t, SP, PV, OP})``."""
     c = draw(cls, level, seed)
-    rng_seed = [97, CLASSES.index(cls), level, seed, 1]
     if c.cls == "saturation":
         q = c.truth.pop("quantile")
-        base = simulate(c, np.random.default_rng(rng_seed))
+        base = simulate(c, noise_rng(c))
         c.truth["op_high"] = float(np.quantile(base["OP"], q))
-    return c, simulate(c, np.random.default_rng(rng_seed))
+    return c, simulate(c, noise_rng(c))
 
 
 def generate(cls: str, level: int, seed: int, out: Path) -> dict:

@@ -113,7 +113,7 @@ def sweep_jobs(loops: int, out: Path) -> list[dict]:
 
 def _simulated(c, level: int, seed: int, out: Path, sub: str, **extra) -> dict:
     """Case ``c`` simulated with the holdout family's noise seed and written as a job."""
-    sig = hf.simulate(c, np.random.default_rng([97, CLASSES.index(c.cls), level, seed, 1]))
+    sig = hf.simulate(c, hf.noise_rng(c))
     (out / sub).mkdir(exist_ok=True)
     return write_job(c, sig, out / sub) | extra
 
