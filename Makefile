@@ -77,6 +77,7 @@ concealed: venv
 	$(BIN)/python experiments/holdout_family.py --seeds 4 --none-seeds 8 --jobs 2
 	$(BIN)/python experiments/holdout_family.py --seeds 12 --none-seeds 24 --first-seed 21000 --name holdout_fresh --jobs 2
 	$(BIN)/python experiments/slow_line.py --loops 8 --jobs 2
+	$(BIN)/python experiments/disturbance_cycles.py --loops 16 --jobs 2
 	$(BIN)/python experiments/slow_loops.py --seeds 24 --jobs 2
 	$(BIN)/python experiments/saturation_evidence.py --seeds 24 --jobs 2
 	$(BIN)/python experiments/valve_curvature.py --seeds 4 --jobs 2
@@ -88,7 +89,7 @@ concealed: venv
 	$(BIN)/python experiments/stiction_controller_rate.py
 	$(BIN)/python experiments/verdict_stability.py --trim 7 --jobs 2
 
-# the holdout family pooled over its seed blocks at the current comparison band (18 x 216
+# the holdout family pooled over its seed blocks at the current comparison band (22 x 216
 # recordings, re-run by the shipped code; block CSVs cached in .cache/holdout_blocks), the
 # NRMSE gate above its reference re-decided on the seen blocks, then the closed-loop
 # parametric bootstrap of its false alarms, the comparison band's filter
