@@ -268,6 +268,8 @@ SEEN_FRESH = {
     36000: "drawn with 35000 (see 35000).",
     37000: "drawn with 35000 (see 35000).",
     38000: "drawn with 35000 (see 35000).",
+    45000: "`disturbance_cycles.py`'s disturbance loops (16 per level from 45000, each "
+           "at several periods); the other classes there are undrawn.",
     20000: "`slow_loops.py`'s healthy loops (seeds 20000-20023 of `none`, their speed "
            "varied); the other classes there are undrawn.",
 }
