@@ -270,6 +270,8 @@ SEEN_FRESH = {
     38000: "drawn with 35000 (see 35000).",
     45000: "`disturbance_cycles.py`'s disturbance loops (16 per level from 45000, each "
            "at several periods); the other classes there are undrawn.",
+    46000: "`slow_loops_named.py`'s level-2 loops of every physics class (8 per class "
+           "from 46000, each at several speeds and two record lengths).",
     20000: "`slow_loops.py`'s healthy loops (seeds 20000-20023 of `none`, their speed "
            "varied); the other classes there are undrawn.",
 }
@@ -285,10 +287,7 @@ def draw(cls: str, level: int, seed: int) -> Case:
     theta = max(1.0, tau * math.exp(rng.uniform(math.log(0.05), math.log(0.8))))
     lam = tau * rng.uniform(0.5, 2.0)
     kc, ti = tau / (K * (lam + theta)), tau
-    t, steps = 30.0, []
-    while t < DURATION - 150:
-        steps.append((round(t, 1), float(rng.choice([-1, 1]) * K * rng.uniform(2, 8))))
-        t += rng.uniform(200, 600)
+    steps = setpoint_steps(rng, K, 30.0, DURATION - 150)
     mean_step = float(np.mean([abs(s) for _, s in steps]))
     # the issue's two levels, drawn here again on purpose: the family shares no draw
     # with the tuning families (concealed_families.draw)
@@ -316,6 +315,17 @@ def draw(cls: str, level: int, seed: int) -> Case:
         c.truth = {"period": float(c.lam_cl * math.exp(rng.uniform(math.log(2), math.log(50)))),
                    "amplitude": float(mean_step * (0.05 + 0.5 * e))}
     return c
+
+
+def setpoint_steps(rng: np.random.Generator, K: float, start: float,
+                   end: float) -> list[tuple[float, float]]:
+    """The family's set-point schedule from ``start`` until ``end`` (s): a step every
+    200–600 s, of either sign, 2–8 times the process gain."""
+    t, steps = start, []
+    while t < end:
+        steps.append((round(t, 1), float(rng.choice([-1, 1]) * K * rng.uniform(2, 8))))
+        t += rng.uniform(200, 600)
+    return steps
 
 
 def kano_step(u: float, s: dict, S: float, J: float) -> float:
@@ -425,12 +435,54 @@ def noise_rng(c: Case) -> np.random.Generator:
 
 def make_recording(cls: str, level: int, seed: int) -> tuple[Case, dict[str, np.ndarray]]:
     """Draw and simulate one holdout recording: ``(case, {t, SP, PV, OP})``."""
-    c = draw(cls, level, seed)
+    return _recorded(draw(cls, level, seed))
+
+
+def _recorded(c: Case) -> tuple[Case, dict[str, np.ndarray]]:
+    """Case ``c`` simulated with its own noise and load; a saturation's travel limit is
+    first read off the loop's OP without it (the drawn quantile)."""
     if c.cls == "saturation":
         q = c.truth.pop("quantile")
         base = simulate(c, noise_rng(c))
         c.truth["op_high"] = float(np.quantile(base["OP"], q))
     return c, simulate(c, noise_rng(c))
+
+
+def at_speed(cls: str, level: int, seed: int, tau: float, duration: float = DURATION,
+             load_scale: float = 1.0) -> tuple[Case, dict[str, np.ndarray]]:
+    """The drawn case moved to time constant ``tau``, recorded for ``duration`` s with its
+    load's spread scaled by ``load_scale``: the same loop slowed or sped up. The drawn
+    ``θ/τ`` and ``λ/τ`` are kept (``θ`` at least 1 s; lambda tuning ``kc = τ/(K(λ+θ))``,
+    ``ti = τ``), and so are the effects drawn in units of the loop's speed (a sensor
+    lag's time constant, the extra dead time, a disturbance's period in closed-loop time
+    constants). Everything is drawn as for the family's own record length; a longer
+    record continues the set-point schedule by the same rule (:func:`setpoint_steps`,
+    its own seed), so the loop, its effect, noise and load are the same in both. Returns
+    ``(case, signals)`` as :func:`make_recording`."""
+    global DURATION
+    c = draw(cls, level, seed)  # at the family's record length: the same draws
+    if duration > DURATION:
+        rng = np.random.default_rng([97, CLASSES.index(cls), level, seed, 2])
+        start = c.steps[-1][0] + rng.uniform(200, 600) if c.steps else 30.0
+        c.steps += setpoint_steps(rng, c.K, start, duration - 150)
+    saved, DURATION = DURATION, duration
+    try:
+        theta0, lam_cl0 = c.theta, c.lam_cl
+        lam = (c.lam_cl - c.theta) * tau / c.tau
+        f = tau / c.tau
+        c.theta, c.tau = max(1.0, c.theta * f), tau
+        c.kc, c.ti, c.lam_cl = tau / (c.K * (lam + c.theta)), tau, lam + c.theta
+        c.load *= load_scale
+        if cls == "sensor_lag":
+            c.truth["time_constant"] *= f
+        elif cls == "dead_time":
+            extra = c.truth["dead_time"] - theta0 - 1.0
+            c.truth["dead_time"] = c.theta + extra * c.theta / theta0 + 1.0
+        elif cls == "oscillatory_disturbance":
+            c.truth["period"] *= c.lam_cl / lam_cl0
+        return _recorded(c)
+    finally:
+        DURATION = saved
 
 
 def generate(cls: str, level: int, seed: int, out: Path) -> dict:

@@ -21,8 +21,11 @@ and diagnosed against its true model as a user would. Three conditions:
 
 - **as drawn**: 3000 s, noise and load as drawn;
 - **no load**: the load's spread set to 0, noise the same;
-- **three times longer**: 9000 s (set-point steps continuing as drawn), noise and load
-  as drawn.
+- **three times longer**: 9000 s (set-point steps continuing by the family's rule),
+  noise and load as drawn. (Until the loops were moved by
+  :func:`holdout_family.at_speed`, the longer record drew its noise level and load
+  again after its longer set-point schedule: the same distribution, not the same loop.
+  The report was regenerated when that was fixed.)
 
 If the load explains the false alarms, they fall without it; if the record's in-band
 samples do, they fall with the longer record. Reported: ``none`` called physics by time
@@ -55,7 +58,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 import fresh_recordings as fresh  # noqa: E402
 import holdout_family as hf  # noqa: E402
 from concealed import decide, run_one, write_job  # noqa: E402
-from concealed_families import CLASSES, DURATION  # noqa: E402
+from concealed_families import DURATION  # noqa: E402
 
 from stictionbench.diagnosis.evidence import ALPHA, MIN_IMPROVEMENT  # noqa: E402
 from stictionbench.diagnosis.evidence import BAND_DOF as SHIPPED_BAND_DOF  # noqa: E402
@@ -77,21 +80,9 @@ CONDITIONS = {"as drawn": (DURATION, 1.0), "no load": (DURATION, 0.0),
 
 def scaled_recording(level: int, seed: int, tau: float, duration: float,
                      load_scale: float):
-    """The holdout family's ``none`` case at ``seed``, its loop moved to time constant
-    ``tau`` (the drawn ``θ/τ`` and ``λ/τ`` kept), the record ``duration`` s long (the
-    set-point schedule and the simulation both read the family's ``DURATION``) and its
-    load scaled by ``load_scale``; returns ``(case, signals)``."""
-    hf.DURATION = duration
-    try:
-        c = hf.draw("none", level, seed)
-        lam = c.lam_cl - c.theta
-        c.theta, lam, c.tau = max(1.0, c.theta * tau / c.tau), lam * tau / c.tau, tau
-        c.kc, c.ti, c.lam_cl = tau / (c.K * (lam + c.theta)), tau, lam + c.theta
-        c.load *= load_scale
-        return c, hf.simulate(c, np.random.default_rng(
-            [97, CLASSES.index("none"), level, seed, 1]))
-    finally:
-        hf.DURATION = DURATION
+    """The holdout family's ``none`` case at ``seed`` moved to time constant ``tau``
+    (:func:`holdout_family.at_speed`); returns ``(case, signals)``."""
+    return hf.at_speed("none", level, seed, tau, duration, load_scale)
 
 
 def jobs(seeds: int, out: Path) -> list[dict]:
