@@ -79,6 +79,7 @@ concealed: venv
 	$(BIN)/python experiments/slow_line.py --loops 8 --jobs 2
 	$(BIN)/python experiments/disturbance_cycles.py --loops 16 --jobs 2
 	$(BIN)/python experiments/slow_loops.py --seeds 24 --jobs 2
+	$(BIN)/python experiments/slow_loops_named.py --seeds 8 --jobs 2
 	$(BIN)/python experiments/saturation_evidence.py --seeds 24 --jobs 2
 	$(BIN)/python experiments/valve_curvature.py --seeds 4 --jobs 2
 	$(BIN)/python experiments/disturbance_band.py --seeds 12 --none-seeds 12 --jobs 2
