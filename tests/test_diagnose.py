@@ -856,6 +856,16 @@ def test_a_model_worse_than_the_mean_is_flagged(data_dir):
     assert "model_warning" not in diagnose(_rec(sensor__time_constant=0.0), NOM).details
 
 
+def test_a_record_short_for_the_loop_is_flagged():
+    # the paper's loop (τ + θ = 20 s): 600 s leave about 35 independent in-band
+    # validation samples, 3000 s about 180 (reports/concealed/slow_loops_named.md)
+    short = diagnose(_rec(duration=600.0, sensor__time_constant=0.0), NOM)
+    assert short.details["band_dof"] < 100
+    assert "2.9 times as long" in short.details["record_warning"]
+    full = diagnose(_rec(sensor__time_constant=0.0), NOM)
+    assert full.details["band_dof"] >= 100 and "record_warning" not in full.details
+
+
 def test_verdict_does_not_depend_on_pv_units():
     # PV in other engineering units (×1000, offset 500; SP with it, the model's gain and
     # the PI's Kc rescaled): the same physics and parameters

@@ -12,7 +12,7 @@ from ..errors import InputError, user_warning
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..io import read_longest_stretch, write_text
     from ..validation import check_writable, refuse_overwrite
-    from .diagnose import diagnose
+    from .diagnose import WARNING_KEYS, diagnose
     from .model import load_model
 
     if not args.json:
@@ -58,7 +58,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     print(f"{args.recording}: {d.missing_physics}" + (f" ({params})" if params else "")
           + f"; validation NRMSE {f['nominal']:.3f} -> {f['improved']:.3f}; "
           f"model {d.model.source}; {d.details['seconds']:.1f} s")
-    for key in ("warning", "model_warning"):
+    for key in WARNING_KEYS:
         if d.details.get(key):
             user_warning(d.details[key])
     return 0

@@ -49,6 +49,7 @@ from .evidence import (
     VALVE_HYPOTHESES,
     Verdict,
     band_dof,
+    record_warning,
     scaled_gate,
     slow_line_named,
     with_range_fallback,
@@ -600,6 +601,12 @@ def own_resolution(rec: Recording, model_given: bool) -> frozenset[str]:
     return OWN_RESOLUTION if model_given and excited else frozenset()
 
 
+#: ``details`` keys of the warnings a user should see beside the verdict (the command
+#: prints them on stderr, the report lists them): regulatory data without a model, a
+#: nominal model that does not explain PV, a record too short for the loop's speed
+WARNING_KEYS = ("warning", "model_warning", "record_warning")
+
+
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
              min_improvement: float = MIN_IMPROVEMENT, hp_factor: float = HP_FACTOR,
              lp_factor: float = 5.0, hypotheses: tuple[str, ...] | None = None,
@@ -687,6 +694,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d.details["slow_line"] = look.to_dict()
     d.details["band_dof"] = dof
     d.details["nrmse_gate"] = gate
+    if (why := record_warning(dof)) is not None:
+        d.details["record_warning"] = why
     d.details["seconds"] = time.perf_counter() - t0
     return d
 

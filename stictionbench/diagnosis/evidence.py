@@ -419,6 +419,32 @@ def band_dof(n_val: int, Ts: float, f_hp: float | None, f_lp: float | None) -> f
     return 2.0 * n_val * Ts * max(f_lp - (f_hp or 0.0), 0.0)
 
 
+def record_warning(dof: float, reference: float = BAND_DOF) -> str | None:
+    """The warning for a record that holds fewer than ``reference`` independent samples
+    in the comparison band (:func:`band_dof`), else ``None``.
+
+    Why: at level 2 of the holdout family, with each loop moved to slower speeds alone,
+    the faults named fell from 86 % (τ < 30 s, 1 s sampling, 3000 s) to 51 % (τ ≥ 30 s,
+    in-band samples 13–59); the same loops recorded three times as long were named 57
+    times more and never less (``reports/concealed/slow_loops_named.md``). A verdict of
+    ``none`` on such a record says little, and the remedy is the record's length.
+
+    Examples
+    --------
+    >>> record_warning(400.0) is None
+    True
+    >>> record_warning(25.0)[:52]
+    'the record holds few independent samples in the comp'
+    """
+    if not dof < reference:
+        return None
+    return (f"the record holds few independent samples in the comparison band (band_dof "
+            f"{dof:.0f}, under {reference:g}: a loop slow for its record), so a fault can "
+            "go unseen and a named one is less sure; a record about "
+            f"{reference / max(dof, 1e-9):.1f} times as long would hold {reference:g} "
+            "(reports/concealed/slow_loops_named.md)")
+
+
 def scaled_gate(min_improvement: float, dof: float, reference: float = BAND_DOF) -> float:
     """The NRMSE gate for a comparison band holding ``dof`` independent validation
     samples: ``min_improvement`` at ``reference`` or more, ``min_improvement ·
@@ -427,8 +453,9 @@ def scaled_gate(min_improvement: float, dof: float, reference: float = BAND_DOF)
     Why: the gate is an effect size measured on the band, and the improvement a
     hypothesis reaches there by chance spreads as ``1/√dof``; a slow loop sampled fast
     leaves few independent samples in a record (a time constant of 120 s over 3000 s at
-    1 s: about 13), and healthy loops were called faulty there 12 % of the time against
-    0.6 % with 100 or more (``reports/concealed/slow_loops.md``). Scaling keeps the
+    1 s: about 13), and healthy loops were called faulty 8 % of the time with the gate
+    unscaled under 100 in-band samples, against 0 of 336 with 100 or more
+    (``reports/concealed/slow_loops.md``). Scaling keeps the
     gate's chance level where it holds on faster loops, at the price of missing small
     effects on slow ones.
 

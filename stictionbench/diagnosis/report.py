@@ -9,7 +9,7 @@ import numpy as np
 
 from ..io import write_text
 from ..reports.figures import new_figure, save_png
-from .diagnose import Diagnosis
+from .diagnose import WARNING_KEYS, Diagnosis
 from .evidence import ALPHA
 from .hypotheses import HYPOTHESES, Context
 
@@ -205,8 +205,7 @@ def summary_markdown(d: Diagnosis) -> str:
         f"- Nominal model ({m.source}): K = {m.gain:.3g}, τ = {m.time_constant:.3g} s, "
         f"θ = {m.dead_time:.3g} s" + (f", PI Kc = {m.kc:.3g}, Ti = {m.ti:.3g} s"
                                       if m.kc is not None else "") + ".",
-        *[f"- **Warning:** {d.details[k]}." for k in ("warning", "model_warning")
-          if d.details.get(k)],
+        *[f"- **Warning:** {d.details[k]}." for k in WARNING_KEYS if d.details.get(k)],
         *[f"- Not tested: {k} ({why})." for k, why in d.details.get("not_tested", {}).items()],
         *_gate_lines(d),
         *_slow_line_lines(d),
