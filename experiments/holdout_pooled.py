@@ -391,8 +391,9 @@ def report(df: pd.DataFrame) -> str:
         "",
         "The family draws τ log-uniformly from 3 to 120 s, every loop sampled at 1 s for "
         "3000 s. The paper's process has τ = 10 s. A slow loop leaves few independent "
-        "samples in its band (the in-band degrees of freedom above; "
-        "[slow_loops.md](slow_loops.md) varies the speed alone on healthy loops).",
+        "samples in its band (the in-band degrees of freedom above): "
+        "[slow_loops_named.md](slow_loops_named.md) varies the speed alone, and the "
+        "record's length, on faulty loops, [slow_loops.md](slow_loops.md) on healthy ones.",
         "",
         to_markdown(by_tau(blind)) if len(blind) else "(not run)",
         "",

@@ -30,6 +30,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from stictionbench.diagnosis import diagnose  # noqa: E402
+from stictionbench.diagnosis.evidence import BAND_DOF  # noqa: E402
 from stictionbench.diagnosis.report import write_report  # noqa: E402
 from stictionbench.io import write_text  # noqa: E402
 from stictionbench.rates import wilson  # noqa: E402
@@ -138,6 +139,7 @@ def main(argv=None) -> int:
             "cycle_period_sim_s": cyc.get("simulated", {}).get("period"),
             "cycle_pv_amp_ratio": math.exp(lr["pv_amplitude"]) if lr else None,
             "cycle_op_amp_ratio": math.exp(lr["op_amplitude"]) if lr else None,
+            "band_dof": round(float(d.details["band_dof"]), 1),
         })
         print(f"{name} ({r.meta['label']}): {d.missing_physics}; stiction improvement "
               f"{rk['stiction']['improvement']:.0%}")
@@ -151,6 +153,9 @@ def main(argv=None) -> int:
     false = other[other.diagnosis == "stiction"]
     lo, hi = wilson(named, len(st))
     cyc = df[df.cycle_reproduced]
+    short = df[df.band_dof < BAND_DOF]
+    missed = st[st.diagnosis != "stiction"]
+    missed_short = missed[missed.band_dof < BAND_DOF]
     lines = [
         "# Model-free diagnosis of the labelled ISDB loops", "",
         f"- stiction loops named `stiction` (with fitted S, J): **{named} of {len(st)}** "
@@ -175,7 +180,13 @@ def main(argv=None) -> int:
         f"of {len(df)} loops;",
         f"- on the stiction loops the stiction model improves the validation fit in "
         f"{len(improved)} of {len(st)} (median improvement where positive "
-        f"{improved.stiction_improvement.median():.0%}).", "",
+        f"{improved.stiction_improvement.median():.0%});",
+        f"- records short for their loop (fewer than {BAND_DOF:g} independent validation "
+        f"samples in the comparison band, `band_dof`; `diagnose` warns, "
+        f"[slow_loops_named.md](../../concealed/slow_loops_named.md)): {len(short)} of "
+        f"{len(df)}" + (f" ({', '.join(short.loop)})" if len(short) else "")
+        + f"; among the stiction loops not named `stiction`: {len(missed_short)} of "
+        f"{len(missed)}.", "",
         to_markdown(df.round(4)), "",
         "Why this is weaker than on simulated data: without MV and without a trusted "
         "model, the process must be identified from OP and PV in closed loop, through the "
