@@ -32,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.stats import binomtest
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -46,7 +45,7 @@ from concealed_families import DURATION  # noqa: E402
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.hammerstein import HP_FACTOR  # noqa: E402
 from stictionbench.io import read_recording, write_text  # noqa: E402
-from stictionbench.rates import rate_text, wilson  # noqa: E402
+from stictionbench.rates import mcnemar_p, rate_text  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
 from stictionbench.reports.tables import csv_text, to_markdown  # noqa: E402
 
@@ -115,12 +114,7 @@ def figure(df: pd.DataFrame, path: Path) -> Path:
                                         ((2, 1.0), "s--", "level 2"),
                                         ((2, 0.0), "^:", "level 2, load removed")):
         g = df[(df.level == level) & (df.load_scale == load)]
-        by = (g.verdict == LINE).groupby(g.cycles)
-        k, n = by.sum(), by.size()
-        rate = (k / n).to_numpy()
-        lo, hi = np.array([wilson(int(a), int(b)) for a, b in zip(k, n, strict=True)]).T
-        ax.errorbar(k.index, rate, yerr=[rate - lo, hi - rate], fmt=style, capsize=3,
-                    label=label)
+        fresh.rate_line(ax, g.verdict == LINE, g.cycles, style, label)
     ax.axvline(2.0, color="grey", lw=0.8, ls=":")
     ax.set_xscale("log")
     ax.set_xticks(CYCLES, [f"{c:g}" for c in CYCLES])
@@ -156,7 +150,7 @@ def reading(df: pd.DataFrame) -> str:
     k1, k0, n = int(pair[1.0].sum()), int(pair[0.0].sum()), len(pair)
     gained, lost = int((pair[0.0] & ~pair[1.0]).sum()), int((pair[1.0] & ~pair[0.0]).sum())
     # exact McNemar test on the discordant pairs (the same loop with and without load)
-    p = float(binomtest(gained, gained + lost, 0.5).pvalue) if gained + lost else 1.0
+    p = mcnemar_p(gained, lost)
     weak = ("the weak line of level 2 is named more often the more cycles the record "
             "holds at the same amplitude" if rising else
             "at level 2 the named rate does not rise steadily with the cycle count")

@@ -70,3 +70,13 @@ def rate_bars(ax, groups: Iterable[pd.DataFrame], hit: Callable[[pd.DataFrame, s
             err[1].append(w[1] - r)
         ax.bar(x + (k - (len(series) - 1) / 2) * width, rates, width, yerr=err, color=colour,
                capsize=3, label=label)
+
+
+def rate_line(ax, hit: pd.Series, x: pd.Series, fmt: str, label: str) -> None:
+    """The rate of ``hit`` (booleans) at each value of ``x``, drawn as a line with Wilson
+    95 % error bars."""
+    by = hit.groupby(x)
+    k, n = by.sum(), by.size()
+    rate = (k / n).to_numpy()
+    lo, hi = np.array([wilson(int(a), int(b)) for a, b in zip(k, n, strict=True)]).T
+    ax.errorbar(k.index, rate, yerr=[rate - lo, hi - rate], fmt=fmt, capsize=3, label=label)

@@ -32,9 +32,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
-from scipy.stats import binomtest
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -46,7 +44,7 @@ from concealed import run_one, write_job  # noqa: E402
 from concealed_families import CLASSES, DURATION  # noqa: E402
 
 from stictionbench.io import write_text  # noqa: E402
-from stictionbench.rates import fisher_p, rate_text, wilson  # noqa: E402
+from stictionbench.rates import fisher_p, mcnemar_p, rate_text  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
 from stictionbench.reports.tables import csv_text, to_markdown  # noqa: E402
 
@@ -106,19 +104,13 @@ def paired(df: pd.DataFrame) -> tuple[int, int, int, float]:
                       aggfunc="first")
     short, long_ = p[RECORDS[DURATION]].astype(bool), p[RECORDS[3 * DURATION]].astype(bool)
     gained, lost = int((long_ & ~short).sum()), int((short & ~long_).sum())
-    pv = float(binomtest(gained, gained + lost, 0.5).pvalue) if gained + lost else 1.0
-    return gained, lost, len(p), pv
+    return gained, lost, len(p), mcnemar_p(gained, lost)
 
 
 def figure(df: pd.DataFrame, path: Path) -> Path:
     fig, ax = new_figure(figsize=(6.5, 3.6))
     for (rec, g), style in zip(df.groupby("record", sort=False), ("o-", "s--"), strict=True):
-        by = (g.pick == g["class"]).groupby(g.tau)
-        k, n = by.sum(), by.size()
-        rate = (k / n).to_numpy()
-        lo, hi = np.array([wilson(int(a), int(b)) for a, b in zip(k, n, strict=True)]).T
-        ax.errorbar(k.index, rate, yerr=[rate - lo, hi - rate], fmt=style, capsize=3,
-                    label=f"{rec} record")
+        fresh.rate_line(ax, g.pick == g["class"], g.tau, style, f"{rec} record")
     ax.set_xscale("log")
     ax.set_xticks(TAUS, [f"{t:g}" for t in TAUS])
     ax.minorticks_off()

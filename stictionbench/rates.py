@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy.stats import fisher_exact, norm
+from scipy.stats import binomtest, fisher_exact, norm
 
 
 def decided(s: pd.Series) -> np.ndarray:
@@ -108,6 +108,22 @@ def fisher_p(k1: int, n1: int, k2: int, n2: int) -> float:
     1.0
     """
     return float(fisher_exact([[k1, n1 - k1], [k2, n2 - k2]])[1])
+
+
+def mcnemar_p(only_b: int, only_a: int) -> float:
+    """Two-sided exact McNemar p-value for paired verdicts: ``only_b`` pairs right only
+    under condition B, ``only_a`` only under A (the discordant pairs), against a
+    fair coin (``scipy.stats.binomtest``; McNemar 1947). 1.0 without discordant pairs.
+
+    Examples
+    --------
+    >>> round(mcnemar_p(13, 1), 4)
+    0.0018
+    >>> mcnemar_p(0, 0)
+    1.0
+    """
+    n = only_b + only_a
+    return float(binomtest(only_b, n, 0.5).pvalue) if n else 1.0
 
 
 def roc_curve(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
