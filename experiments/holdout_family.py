@@ -268,6 +268,11 @@ SEEN_FRESH = {
     36000: "drawn with 35000 (see 35000).",
     37000: "drawn with 35000 (see 35000).",
     38000: "drawn with 35000 (see 35000).",
+    39000: "drawn to score the OP-hold check (`stictionbench.diagnosis.op_limit`: a "
+           "controller output held at its limit names saturation where the comparison "
+           "named nothing), found on the independent set (`independent_set.py`); it "
+           "changed no verdict of the block: level 1 15.4, level 2 11.8 of 16, `none` "
+           "called physics 3/24 and 1/24. The next rule change is scored on 40000.",
     45000: "`disturbance_cycles.py`'s disturbance loops (16 per level from 45000, each "
            "at several periods); the other classes there are undrawn.",
     46000: "`slow_loops_named.py`'s level-2 loops of every physics class (8 per class "

@@ -37,7 +37,9 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import holdout_family as hf  # noqa: E402
 
+from stictionbench.diagnosis.op_limit import held_at_limit  # noqa: E402
 from stictionbench.io import atomic_path, write_text  # noqa: E402
+from stictionbench.op_range import infer_op_range  # noqa: E402
 from stictionbench.rates import balanced_score, balanced_text, fisher_p, rate_text, wilson  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
@@ -51,17 +53,23 @@ from stictionbench.reports.tables import to_markdown  # noqa: E402
 #: drawn blind and then the score of the slip-jump test's J = 0 refit with a model
 #: (``slip_jump_nuisance.py``: a search change, no threshold, not adopted), and
 #: 31000–34000, drawn blind for ``slip_jump_symmetric.py`` (not adopted either), and
-#: 35000–38000, drawn blind with no candidate rule, to narrow the blind estimate.
+#: 35000–38000, drawn blind with no candidate rule, to narrow the blind estimate, and
+#: 39000, drawn blind to score the OP-hold check (``diagnosis.op_limit``: adopted; it
+#: changed no verdict of the block).
 #: Blocks 1000–15000 were pooled with the zero-phase band (this report at ``f45f3d5``
 #: and its extension to 19000 in the commit that switched the band) and are not re-run.
 BLOCKS = (16000, 17000, 18000, 19000, 21000, 22000, 23000, 24000, 25000, 26000, 27000,
-          28000, 29000, 30000, 31000, 32000, 33000, 34000, 35000, 36000, 37000, 38000)
+          28000, 29000, 30000, 31000, 32000, 33000, 34000, 35000, 36000, 37000, 38000,
+          39000)
 #: blocks drawn after the last threshold or band change of the package (21000: ``make
 #: concealed``'s ``holdout_fresh.md``), no rule chosen on them except by a criterion
 #: stated before their run: their pooled rates are the blind estimate
 BLIND = (21000, 22000, 23000, 24000, 25000, 26000, 27000, 28000, 29000, 30000, 31000,
-         32000, 33000, 34000, 35000, 36000, 37000, 38000)
+         32000, 33000, 34000, 35000, 36000, 37000, 38000, 39000)
 SEEDS, NONE_SEEDS = 12, 24
+#: the first block diagnosed with the OP-hold check; the stored verdicts of earlier ones
+#: are re-read with it (:func:`with_op_hold`)
+HOLD_CHECKED_FROM = 39000
 #: in-band degrees of freedom bins of the report (the band-dof gate's reference is 100)
 DOF_BINS = (0.0, 25.0, 35.0, 60.0, 100.0, 200.0, np.inf)
 #: PV-noise bins, standard deviation as a fraction of the mean set-point step (the family
@@ -98,7 +106,24 @@ def block(first: int, cache: Path, jobs: int) -> pd.DataFrame:
     out["tau"] = [hf.draw(c, int(lv), int(sd)).tau
                   for c, lv, sd in zip(df["class"], df.level, df.seed, strict=True)]
     out["block"] = first
+    if first < HOLD_CHECKED_FROM:
+        out["predicted_default"] = with_op_hold(out)
     return out
+
+
+def with_op_hold(df: pd.DataFrame) -> pd.Series:
+    """Stored verdicts of a block diagnosed before the OP-hold check
+    (:func:`stictionbench.diagnosis.diagnose.name_held_limit`) re-read with it: a ``none``
+    whose recording holds OP at a limit (:func:`~stictionbench.diagnosis.op_limit.
+    held_at_limit`, which reads OP alone; the recording made again) becomes
+    ``saturation``; every other verdict stands, as the check leaves it."""
+    pred = df["predicted_default"].copy()
+    for i in df.index[pred == "none"]:
+        _, sig = hf.make_recording(df.at[i, "class"], int(df.at[i, "level"]),
+                                   int(df.at[i, "seed"]))
+        if held_at_limit(sig["OP"], infer_op_range(sig["OP"]))["held"]:
+            pred[i] = "saturation"
+    return pred
 
 
 def per16(ok: pd.Series, classes: pd.Series) -> str:
@@ -341,7 +366,9 @@ def report(df: pd.DataFrame) -> str:
         "threshold or band change and, pooled, are the blind estimate (27000–30000 then "
         "scored the slip-jump test's J = 0 refit and 31000–34000 its two-ended search, neither "
         "adopted: `slip_jump_nuisance.md`, `slip_jump_symmetric.md`; 35000–38000 were drawn "
-        "with no candidate, to narrow the estimate). "
+        "with no candidate, to narrow the estimate; 39000 scored the OP-hold check, which "
+        "changed none of its verdicts; the earlier blocks' `none` verdicts are re-read with "
+        "it, which reads OP alone: `with_op_hold`). "
         "No threshold was set on this family.",
         "",
         "## Pooled",

@@ -114,9 +114,14 @@ def test_short_disturbance_in_a_tight_loop_is_named():
     assert d.missing_physics == "oscillatory_disturbance"
     assert d.parameters["period"] == pytest.approx(15.0, rel=0.01)
     assert d.details["lowpass_hz"] > 3.0 / 15.0
-    # the same loop without the line: no line in the residual, the band cut from τ
+    # the same loop without the line: no line in the residual, the band cut from τ; the
+    # tight PI drives OP to 100 % for three samples at each set-point step, which the
+    # OP-hold check reports as a saturation (diagnosis.op_limit), the comparison nothing
     d0 = diagnose(_rec(**plant), m)
-    assert d0.missing_physics == "none"
+    held = d0.tests["op_held_at_limit"]
+    assert held["held"] and held["limit"] == 100.0 and held["longest_run"] == 3
+    assert d0.missing_physics == "saturation" and held["named"]
+    assert all(not r["significant"] for r in d0.ranking if r["physics"] != "none")
     assert d0.details["lowpass_hz"] == pytest.approx(5.0 / (2 * math.pi * 40.0))
 
 

@@ -68,6 +68,7 @@ from .locate import (
 )
 from .model import NominalModel, fit_pi, identify_pi
 from .noise import fit_noise_model
+from .op_limit import held_at_limit
 from .openloop import band_of
 from .process import (
     MIN_SETPOINT_EXCITATION,
@@ -604,7 +605,7 @@ def own_resolution(rec: Recording, model_given: bool) -> frozenset[str]:
 #: ``details`` keys of the warnings a user should see beside the verdict (the command
 #: prints them on stderr, the report lists them): regulatory data without a model, a
 #: nominal model that does not explain PV, a record too short for the loop's speed
-WARNING_KEYS = ("warning", "model_warning", "record_warning")
+WARNING_KEYS = ("warning", "model_warning", "record_warning", "limit_warning")
 
 
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
@@ -692,11 +693,45 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d = _assemble(cmp, loc, fits, verdict, ham)
     if look is not None:
         d.details["slow_line"] = look.to_dict()
+    d = name_held_limit(d, held_at_limit(cmp.rec.OP, cmp.ctx.op_range))
     d.details["band_dof"] = dof
     d.details["nrmse_gate"] = gate
     if (why := record_warning(dof)) is not None:
         d.details["record_warning"] = why
     d.details["seconds"] = time.perf_counter() - t0
+    return d
+
+
+def name_held_limit(d: Diagnosis, held: dict[str, Any]) -> Diagnosis:
+    """Name ``saturation`` where the comparison named nothing and OP is held at a limit
+    (:func:`.op_limit.held_at_limit`), in place; the check is reported under
+    ``tests["op_held_at_limit"]`` either way, and a hold beside another verdict draws
+    ``details["limit_warning"]``.
+
+    A recorded OP clamped at its limit drives the plant exactly as recorded, so the
+    nominal model's response to it shows no mismatch (:mod:`.op_limit`): the saturation
+    hypothesis at the held limit predicts what the nominal model predicts, and its fit is
+    that one, the limit read off the data (its interval a point)."""
+    d.tests["op_held_at_limit"] = {**held, "named": False}
+    if not held["held"]:
+        return d
+    what = (f"OP held at its {held['side']} limit ({held['limit']:.4g}) for "
+            f"{held['fraction']:.1%} of the record ({held['runs']} holds, the longest "
+            f"{held['longest_run']} samples): the loop is open while it stays there")
+    if d.missing_physics != "none":
+        d.details["limit_warning"] = what
+        return d
+    key = "op_high" if held["side"] == "high" else "op_low"
+    v = float(held["limit"])
+    base = d.fits["none"]
+    d.fits["saturation"] = replace(
+        base, name="saturation", params={key: v}, intervals={key: [v, v]},
+        p=np.array([-np.inf, v]) if key == "op_high" else np.array([v, np.inf]))
+    d.missing_physics, d.parameters, d.uncertainty = "saturation", {key: v}, {key: [v, v]}
+    d.mismatch_detected = True
+    d.fit = {**d.fit, "improved": base.nrmse_val}
+    d.tests["op_held_at_limit"]["named"] = True
+    d.details["op_held_at_limit"] = what
     return d
 
 

@@ -132,6 +132,19 @@ def _range_lines(d: Diagnosis) -> list[str]:
             f"blocks do not contradict it."]
 
 
+def _held_lines(d: Diagnosis) -> list[str]:
+    """The OP-held-at-a-limit check (:func:`.op_limit.held_at_limit`), when OP was held."""
+    t = d.tests.get("op_held_at_limit") or {}
+    if not t.get("held"):
+        return []
+    said = ("named saturation: the recorded OP is the clamped one, so the nominal model "
+            "driven by it shows no mismatch, and the limit is read off OP itself"
+            if t["named"] else f"reported beside the verdict ({d.missing_physics})")
+    return [f"- OP held at its {t['side']} limit ({t['limit']:.4g}) for "
+            f"{t['fraction']:.1%} of the record ({t['runs']} holds of at least "
+            f"{t['min_run']} samples, the longest {t['longest_run']}): {said}."]
+
+
 def _gate_lines(d: Diagnosis) -> list[str]:
     """Why a valve hypothesis that beats the nominal model was not credited (model-free:
     it must also beat the linear loop re-identified under the same criterion)."""
@@ -210,6 +223,7 @@ def summary_markdown(d: Diagnosis) -> str:
         *_gate_lines(d),
         *_slow_line_lines(d),
         *_range_lines(d),
+        *_held_lines(d),
         *_residual_lines(d),
         "",
         "| physics | score (0 = best) | validation NRMSE | improvement | p-value | chosen |",
