@@ -201,7 +201,12 @@ def main(argv=None) -> int:
         f"it by the band's degrees of freedom below {BAND_DOF:g} "
         f"(`evidence.scaled_gate`, whose reference was read off this report): called "
         f"physics under {BAND_DOF} {called(df[few], 'pick')}, {BAND_DOF} or more "
-        f"{called(df[~few], 'pick')}.", "",
+        f"{called(df[~few], 'pick')}.",
+        "- of the shipped calls, `saturation` (the loop's OP held at 0 or 100 % by the "
+        "random-walk load, named by the OP-hold check, `diagnosis.op_limit`; no healthy "
+        "loop here was called saturation before it): "
+        + "; ".join(f"{cond} {rate_text(int((g['pick'] == 'saturation').sum()), len(g))}"
+                    for cond, g in df.groupby("condition", sort=False)) + ".", "",
         "Reading: if the slow load explained the false alarms they would fall without "
         "it; if the few in-band samples of a slow loop's record did, they would fall with "
         "the longer record. The rows above say which; where neither condition brings the "

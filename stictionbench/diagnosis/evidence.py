@@ -424,8 +424,8 @@ def record_warning(dof: float, reference: float = BAND_DOF) -> str | None:
     in the comparison band (:func:`band_dof`), else ``None``.
 
     Why: at level 2 of the holdout family, with each loop moved to slower speeds alone,
-    the faults named fell from 86 % (τ < 30 s, 1 s sampling, 3000 s) to 51 % (τ ≥ 30 s,
-    in-band samples 13–59); the same loops recorded three times as long were named 57
+    the faults named fell from 86 % (τ < 30 s, 1 s sampling, 3000 s) to 52 % (τ ≥ 30 s,
+    in-band samples 13–59); the same loops recorded three times as long were named 56
     times more and never less (``reports/concealed/slow_loops_named.md``). A verdict of
     ``none`` on such a record says little, and the remedy is the record's length.
 
