@@ -30,7 +30,7 @@ def stretches(missing: np.ndarray, *, max_gap: int = MAX_INTERPOLATED_GAP,
     [(0, 120), (130, 300)]
     """
     missing = np.asarray(missing, bool)
-    cuts = [(a, b) for a, b in _runs(missing)
+    cuts = [(a, b) for a, b in true_runs(missing)
             if b - a > max_gap or a == 0 or b == missing.size]
     out, start = [], 0
     for a, b in cuts:
@@ -61,7 +61,7 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
         if k != "t":
             missing |= np.isnan(v)
     spans = stretches(missing)
-    if not spans or not any(b - a > MAX_INTERPOLATED_GAP for a, b in _runs(missing)):
+    if not spans or not any(b - a > MAX_INTERPOLATED_GAP for a, b in true_runs(missing)):
         # no long gap (or nothing usable): the strict reader's answer, message included
         return [Recording.from_arrays(cols["t"], cols["PV"], cols["OP"], SP=cols.get("SP"),
                                       MV=cols.get("MV"), meta=meta, source=source,
@@ -78,7 +78,13 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
     return out
 
 
-def _runs(missing: np.ndarray) -> list[tuple[int, int]]:
-    """``[start, stop)`` of every run of True."""
-    edges = np.flatnonzero(np.diff(np.r_[0, missing.astype(np.int8), 0]))
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``[start, stop)`` of every run of True in ``mask``.
+
+    Examples
+    --------
+    >>> true_runs(np.array([True, True, False, True]))
+    [(0, 2), (3, 4)]
+    """
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(np.int8), 0]))
     return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]

@@ -24,6 +24,8 @@ from typing import Any
 
 import numpy as np
 
+from ..stretches import true_runs
+
 #: consecutive samples exactly at the extreme that make a hold (two equal samples happen
 #: to a coarsely printed OP; three exactly equal ones at the very extreme, with OP moving
 #: everywhere else, do not)
@@ -37,11 +39,8 @@ RANGE_END_RTOL = 0.005
 
 def _runs(mask: np.ndarray, min_run: int) -> tuple[int, int, int]:
     """Samples in runs of ``mask`` at least ``min_run`` long, the number of such runs and
-    the longest run."""
-    m = np.r_[False, mask, False].astype(np.int8)
-    d = np.diff(m)
-    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
-    lengths = ends - starts
+    the longest run (:func:`stictionbench.stretches.true_runs`)."""
+    lengths = np.array([b - a for a, b in true_runs(mask)], dtype=int)
     long_ = lengths[lengths >= min_run]
     return int(long_.sum()), int(long_.size), int(lengths.max(initial=0))
 
