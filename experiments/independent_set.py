@@ -48,13 +48,17 @@ from stictionbench.rates import balanced_text, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
-#: per class, the truth column (of ``experiments/blind_generator``'s ``truth.csv``) that
-#: measures the effect's size, for the detectability table; a class whose column a set
-#: lacks is left out of it
-EFFECT = {"stiction": "S", "deadband": "deadband", "sensor_lag": "lag_over_tau",
-          "dead_time": "dead_time_ratio", "valve_characteristic": "char_max_dev",
-          "saturation": "saturation_fraction_of_time",
-          "oscillatory_disturbance": "disturbance_amplitude_frac"}
+#: per class, the truth columns (of ``experiments/blind_generator``'s and
+#: ``experiments/blind_generator_c``'s ``truth.csv``) that measure the effect's size, the
+#: first present is used; a ratio (true over nominal) is read as ``|ln|``; a class whose
+#: columns a set lacks is left out of the detectability table
+EFFECT = {"stiction": ("S", "stiction_S"), "deadband": ("deadband",),
+          "sensor_lag": ("lag_over_tau", "sensor_lag_rel_tcl"),
+          "dead_time": ("dead_time_ratio", "dead_time_true_over_model"),
+          "valve_characteristic": ("char_max_dev", "valve_gain_ratio"),
+          "saturation": ("saturation_fraction_of_time", "sat_frac_at_limit"),
+          "oscillatory_disturbance": ("disturbance_amplitude_frac",)}
+RATIOS = ("dead_time_ratio", "dead_time_true_over_model", "valve_gain_ratio")
 
 
 def diagnose_one(data: str, name: str) -> dict:
@@ -152,17 +156,17 @@ def _by_effect(df: pd.DataFrame) -> list[str]:
     upper half of what the set drew at each level)."""
     rows = []
     for (lvl, cls), g in df[df["class"] != "none"].groupby(["level", "class"]):
-        col = EFFECT.get(cls)
-        if col not in g or g[col].isna().all():
+        col = next((c for c in EFFECT.get(cls, ()) if c in g and g[c].notna().any()), None)
+        if col is None:
             continue
         x = g[col].astype(float)
-        if cls == "dead_time":
+        if col in RATIOS:
             x = np.abs(np.log(x))
         cut = float(x.median())
         for what, part in (("smaller half", g[x <= cut]), ("larger half", g[x > cut])):
             xs = x[part.index]
-            rows.append({"level": lvl, "class": cls, "effect": col + (" (|ln|)" if cls ==
-                                                                        "dead_time" else ""),
+            rows.append({"level": lvl, "class": cls,
+                         "effect": col + (" (|ln|)" if col in RATIOS else ""),
                          "half": what, "range": f"{xs.min():.3g}–{xs.max():.3g}",
                          "named": rate_text(int(part["ok"].sum()), len(part))})
     if not rows:
