@@ -94,11 +94,14 @@ concealed: venv
 # the independent concealed sets: generators written without sight of the package
 # (experiments/blind_generator/ for sets A and B, experiments/blind_generator_c/ for set C,
 # each by a separate author; READMEs there), 192 recordings per set, diagnosed as the
-# command does, then the controller's rate varied on fresh healthy loops of the first
-# generator (about 10 minutes on 2 cores)
+# command does; sets D and E are fresh seeds of the same two generators, first drawn to
+# score the set-point gain test (stictionbench/diagnosis/gain.py) after it was fixed;
+# then the gain test across families and the controller's rate varied on fresh healthy
+# loops of the first generator (about 20 minutes on 2 cores)
 BLIND := .cache/blindgen
 independent: venv
-	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000; do \
+	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
+			d:blind_generator:9000 e:blind_generator_c:11000; do \
 		set=$${s%%:*}; rest=$${s#*:}; gen=$${rest%%:*}; seed=$${rest##*:}; \
 		rm -rf $(BLIND)/set_$$set; \
 		$(BIN)/python experiments/$$gen/generate.py --out $(BLIND)/set_$$set \
@@ -106,6 +109,7 @@ independent: venv
 		$(BIN)/python experiments/independent_set.py --data $(BLIND)/set_$$set \
 			--name independent_set_$$set --jobs 2 || exit $$?; \
 	done
+	$(BIN)/python experiments/setpoint_gain.py --jobs 2
 	$(BIN)/python experiments/snapshot_op.py --loops 48 --jobs 2
 
 # the holdout family pooled over its seed blocks at the current comparison band (22 x 216

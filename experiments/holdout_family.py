@@ -273,6 +273,12 @@ SEEN_FRESH = {
            "named nothing), found on the independent set (`independent_set.py`); it "
            "changed no verdict of the block: level 1 15.4, level 2 11.8 of 16, `none` "
            "called physics 3/24 and 1/24. The next rule change is scored on 40000.",
+    40000: "drawn to score the set-point gain test (`stictionbench.diagnosis.gain`: the "
+           "loop's gain measured by instrumental variables through the set point names a "
+           "valve characteristic where the comparison named nothing), found on the "
+           "independent sets; it changed no verdict of the block (run again without it): "
+           "level 1 14.7, level 2 12.2 of 16, `none` called physics 0/24 and 0/24. The "
+           "next rule change is scored on 41000.",
     45000: "`disturbance_cycles.py`'s disturbance loops (16 per level from 45000, each "
            "at several periods); the other classes there are undrawn.",
     46000: "`slow_loops_named.py`'s level-2 loops of every physics class (8 per class "

@@ -26,6 +26,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -37,8 +39,11 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import holdout_family as hf  # noqa: E402
 
+from stictionbench.diagnosis import load_model  # noqa: E402
+from stictionbench.diagnosis.diagnose import compare  # noqa: E402
+from stictionbench.diagnosis.gain import setpoint_gain  # noqa: E402
 from stictionbench.diagnosis.op_limit import held_at_limit  # noqa: E402
-from stictionbench.io import atomic_path, write_text  # noqa: E402
+from stictionbench.io import atomic_path, read_recording, write_text  # noqa: E402
 from stictionbench.op_range import infer_op_range  # noqa: E402
 from stictionbench.rates import balanced_score, balanced_text, fisher_p, rate_text, wilson  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -55,21 +60,25 @@ from stictionbench.reports.tables import to_markdown  # noqa: E402
 #: 31000–34000, drawn blind for ``slip_jump_symmetric.py`` (not adopted either), and
 #: 35000–38000, drawn blind with no candidate rule, to narrow the blind estimate, and
 #: 39000, drawn blind to score the OP-hold check (``diagnosis.op_limit``: adopted; it
-#: changed no verdict of the block).
+#: changed no verdict of the block), and 40000, drawn blind to score the set-point gain
+#: test (``diagnosis.gain``: adopted).
 #: Blocks 1000–15000 were pooled with the zero-phase band (this report at ``f45f3d5``
 #: and its extension to 19000 in the commit that switched the band) and are not re-run.
 BLOCKS = (16000, 17000, 18000, 19000, 21000, 22000, 23000, 24000, 25000, 26000, 27000,
           28000, 29000, 30000, 31000, 32000, 33000, 34000, 35000, 36000, 37000, 38000,
-          39000)
+          39000, 40000)
 #: blocks drawn after the last threshold or band change of the package (21000: ``make
 #: concealed``'s ``holdout_fresh.md``), no rule chosen on them except by a criterion
 #: stated before their run: their pooled rates are the blind estimate
 BLIND = (21000, 22000, 23000, 24000, 25000, 26000, 27000, 28000, 29000, 30000, 31000,
-         32000, 33000, 34000, 35000, 36000, 37000, 38000, 39000)
+         32000, 33000, 34000, 35000, 36000, 37000, 38000, 39000, 40000)
 SEEDS, NONE_SEEDS = 12, 24
 #: the first block diagnosed with the OP-hold check; the stored verdicts of earlier ones
 #: are re-read with it (:func:`with_op_hold`)
 HOLD_CHECKED_FROM = 39000
+#: the first block diagnosed with the set-point gain test; the stored ``none`` verdicts of
+#: earlier ones are re-read with it (:func:`with_gain_test`)
+GAIN_CHECKED_FROM = 40000
 #: in-band degrees of freedom bins of the report (the band-dof gate's reference is 100)
 DOF_BINS = (0.0, 25.0, 35.0, 60.0, 100.0, 200.0, np.inf)
 #: PV-noise bins, standard deviation as a fraction of the mean set-point step (the family
@@ -108,6 +117,8 @@ def block(first: int, cache: Path, jobs: int) -> pd.DataFrame:
     out["block"] = first
     if first < HOLD_CHECKED_FROM:
         out["predicted_default"] = with_op_hold(out)
+    if first < GAIN_CHECKED_FROM:
+        out["predicted_default"] = with_gain_test(out, cache / f"h{first}_gain.csv", jobs)
     return out
 
 
@@ -123,6 +134,43 @@ def with_op_hold(df: pd.DataFrame) -> pd.Series:
                                    int(df.at[i, "seed"]))
         if held_at_limit(sig["OP"], infer_op_range(sig["OP"]))["held"]:
             pred[i] = "saturation"
+    return pred
+
+
+def _gain_flag(job: tuple[str, int, int]) -> tuple[str, bool]:
+    """The set-point gain test on one holdout recording, made again (in a temporary
+    directory, read back as a user's CSV and YAML)."""
+    cls, level, seed = job
+    with tempfile.TemporaryDirectory() as tmp:
+        j = hf.generate(cls, level, seed, Path(tmp))
+        t = setpoint_gain(compare(read_recording(j["csv"], warn=False),
+                                  load_model(j["model"])))
+    return j["name"], bool(t.significant)
+
+
+def with_gain_test(df: pd.DataFrame, cache: Path, jobs: int) -> pd.Series:
+    """Stored verdicts of a block diagnosed before the set-point gain test
+    (:func:`stictionbench.diagnosis.diagnose.name_gain_error`) re-read with it: a ``none``
+    whose recording's gain, measured through the set point, differs from the model's
+    (:func:`stictionbench.diagnosis.gain.setpoint_gain`: stage 1 of the diagnosis and the
+    test, the recording made again) becomes ``valve_characteristic``; every other verdict
+    stands, as the rule leaves it. The flags are kept in ``cache``."""
+    pred = df["predicted_default"].copy()
+    todo = df.index[pred == "none"]
+    if cache.is_file():
+        flags = pd.read_csv(cache)
+    else:
+        jobs_ = [(df.at[i, "class"], int(df.at[i, "level"]), int(df.at[i, "seed"]))
+                 for i in todo]
+        with ProcessPoolExecutor(jobs) as ex:
+            got = list(ex.map(_gain_flag, jobs_, chunksize=4))
+        flags = pd.DataFrame(got, columns=["name", "gain_flagged"])
+        with atomic_path(cache) as tmp:
+            flags.to_csv(tmp, index=False)
+    hit = set(flags.name[flags.gain_flagged])
+    for i in todo:
+        if df.at[i, "name"] in hit:
+            pred[i] = "valve_characteristic"
     return pred
 
 

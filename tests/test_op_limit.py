@@ -3,14 +3,19 @@ diagnosis naming ``saturation`` from it where the comparison with the model sees
 
 from __future__ import annotations
 
-import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from stictionbench.diagnosis import NominalModel, diagnose
-from stictionbench.diagnosis.op_limit import MIN_RUN, held_at_limit
-from stictionbench.recording import Recording
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from pi_loop import velocity_pi_loop  # noqa: E402
+
+from stictionbench.diagnosis import NominalModel, diagnose  # noqa: E402
+from stictionbench.diagnosis.op_limit import MIN_RUN, held_at_limit  # noqa: E402
+from stictionbench.recording import Recording  # noqa: E402
 
 K, TAU, THETA, KC, TI = 2.0, 10.0, 4.0, 0.6, 10.0
 
@@ -20,24 +25,10 @@ def _loop(sp_high: float, seed: int = 3, n: int = 3000) -> Recording:
     following it; PV noise and a random-walk load; the set point steps to ``sp_high``
     and back every 500 s (out of the valve's reach when ``K·100 < sp_high``)."""
     rng = np.random.default_rng(seed)
-    a = math.exp(-1.0 / TAU)
-    d = int(THETA)
     sp = np.where((np.arange(n) // 500) % 2 == 1, sp_high, 100.0)
     load = np.cumsum(rng.normal(0.0, 0.05, n))
     noise = rng.normal(0.0, 0.5, n)
-    x, op, e_prev = 100.0, 50.0, 0.0
-    buf = [op] * (d + 1)
-    pv, ops = np.empty(n), np.empty(n)
-    for k in range(n):
-        pv[k] = x + load[k] + noise[k]
-        e = sp[k] - pv[k]
-        if k:
-            op = min(max(op + KC * ((e - e_prev) + e / TI), 0.0), 100.0)
-        e_prev = e
-        ops[k] = op
-        buf.append(op)
-        x = a * x + (1 - a) * K * buf.pop(0)
-    return Recording.from_arrays(np.arange(n, dtype=float), pv, ops, SP=sp)
+    return velocity_pi_loop(sp, K, TAU, THETA, KC, TI, load, noise, 50.0, (0.0, 100.0))
 
 
 MODEL = NominalModel(K, TAU, THETA, KC, TI, 1.0, op_range=(0.0, 100.0))

@@ -56,6 +56,7 @@ from .evidence import (
 )
 from .evidence import validate as _validate
 from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
+from .gain import GainTest, setpoint_gain
 from .hammerstein import HP_FACTOR, HammersteinResult, fit_hammerstein
 from .hypotheses import HYPOTHESES, Context, Nominal, lowpass_corner
 from .locate import (
@@ -78,8 +79,8 @@ from .process import (
 )
 
 __all__ = ["Diagnosis", "closed_loop_replay", "compare", "cycle_evidence", "diagnose", "fit",
-           "fit_fopdt", "hypothesise", "identify_fopdt", "locate", "own_resolution",
-           "validate", "valve_output"]
+           "fit_fopdt", "hypothesise", "identify_fopdt", "locate", "name_gain_error",
+           "name_held_limit", "own_resolution", "validate", "valve_output"]
 
 N_BLOCKS = 5
 
@@ -694,6 +695,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     if look is not None:
         d.details["slow_line"] = look.to_dict()
     d = name_held_limit(d, held_at_limit(cmp.rec.OP, cmp.ctx.op_range))
+    d = name_gain_error(d, setpoint_gain(cmp))
     d.details["band_dof"] = dof
     d.details["nrmse_gate"] = gate
     if (why := record_warning(dof)) is not None:
@@ -732,6 +734,37 @@ def name_held_limit(d: Diagnosis, held: dict[str, Any]) -> Diagnosis:
     d.fit = {**d.fit, "improved": base.nrmse_val}
     d.tests["op_held_at_limit"]["named"] = True
     d.details["op_held_at_limit"] = what
+    return d
+
+
+def name_gain_error(d: Diagnosis, test: GainTest) -> Diagnosis:
+    """Name ``valve_characteristic`` where nothing else was named and the gain measured
+    through the set point's moves differs from the model's (:func:`.gain.setpoint_gain`),
+    in place; the test is reported under ``tests["setpoint_gain"]`` either way.
+
+    Every hypothesis fits the gain freely, so an installed characteristic whose slope at
+    the operating point is not the model's, over an OP range too narrow for its curve to
+    show, is a gain error the comparison cannot see (:mod:`.gain`). The answer's
+    parameter is that slope as a ratio, ``gain_ratio`` (measured over given, with its
+    interval); its fit is the nominal model with the given gain (``fit.nominal``) and
+    with the measured one (``fit.improved``), validation NRMSE both."""
+    d.tests["setpoint_gain"] = {**test.to_dict(), "named": False}
+    if d.missing_physics != "none" or not test.significant:
+        return d
+    d.missing_physics, d.mismatch_detected = "valve_characteristic", True
+    if test.y is not None and test.pred is not None:
+        d.fits["valve_characteristic"] = replace(
+            d.fits["none"], name="valve_characteristic", pred=test.pred,
+            resid=test.y - test.pred, params={"gain_ratio": test.ratio},
+            p=np.array([test.ratio]))
+    d.parameters = {"gain_ratio": test.ratio}
+    d.uncertainty = {"gain_ratio": [float(v) for v in test.interval]}
+    d.fit = {**d.fit, "nominal": test.nrmse_given, "improved": test.nrmse_measured}
+    d.tests["setpoint_gain"]["named"] = True
+    d.details["setpoint_gain"] = (
+        f"the loop's gain measured through its set-point moves is {test.ratio:.3g} times "
+        f"the model's ({test.interval[0]:.3g}–{test.interval[1]:.3g}, p = "
+        f"{test.p_value:.2g}): a valve slope at the operating point the model does not have")
     return d
 
 

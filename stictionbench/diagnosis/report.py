@@ -42,11 +42,16 @@ def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
     nom = d.fits["none"]
     best = d.fits[d.missing_physics]
     y_hp = nom.resid + nom.pred  # the high-passed PV
+    nom_pred = nom.pred
+    if d.tests.get("setpoint_gain", {}).get("named"):
+        # the nominal model as given (its gain, not the fitted one: :mod:`.gain`)
+        nom_pred = best.pred / d.parameters["gain_ratio"]
+    nom_resid = y_hp - nom_pred
     paths = []
     # 1. recording vs nominal vs improved (high-passed: what the fit compares)
     fig, ax = new_figure(figsize=(9, 4))
     ax.plot(t, y_hp, color="k", lw=0.8, label="recorded PV (slow load removed)")
-    ax.plot(t, nom.pred, lw=1, label="nominal model")
+    ax.plot(t, nom_pred, lw=1, label="nominal model")
     if d.missing_physics != "none":
         ax.plot(t, best.pred, lw=1, label=f"with {d.missing_physics}")
     for i, (a, b) in enumerate(d.val_blocks):
@@ -57,7 +62,7 @@ def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
     # 2. residual before/after with windows
     fig, ax = new_figure(figsize=(9, 4))
     _shade(ax, d.mismatch_windows)
-    ax.plot(t, nom.resid, lw=0.8, label="residual, nominal")
+    ax.plot(t, nom_resid, lw=0.8, label="residual, nominal")
     if d.missing_physics != "none":
         ax.plot(t, best.resid, lw=0.8, label=f"residual, with {d.missing_physics}")
     ax.set(xlabel="time (s)", ylabel="PV − model", title="Residual before and after")
@@ -93,9 +98,14 @@ def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
 
 
 def estimated_mv(d: Diagnosis) -> np.ndarray:
-    """Valve position implied by the chosen hypothesis (OP for non-valve ones)."""
+    """Valve position implied by the chosen hypothesis (OP for non-valve ones); for a
+    gain measured through the set point (:mod:`.gain`), OP scaled about its mean by the
+    gain ratio: the valve's slope at the operating point."""
     rec = d.rec
     assert rec is not None
+    if d.tests.get("setpoint_gain", {}).get("named"):
+        op = np.asarray(rec.OP, float)
+        return float(op.mean()) + d.parameters["gain_ratio"] * (op - float(op.mean()))
     ctx = Context(rec.t, np.asarray(rec.OP, float), rec.PV, rec.Ts, d.model.time_constant,
                   d.model.dead_time,
                   op_range=tuple(d.details.get("op_range") or (0.0, 100.0)))
