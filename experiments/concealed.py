@@ -139,15 +139,20 @@ def decision_row(d) -> dict:
     """What :func:`decide` re-decides a finished diagnosis from: its ranking
     (:func:`stored_evidence`), the slip-jump p-value, whether the closed-loop cycle was
     reproduced and the dead time judged by its own resolution, the second look's line
-    (:func:`slow_line_evidence`) and, against a given model, the band's degrees of
-    freedom that scaled the NRMSE gate."""
+    (:func:`slow_line_evidence`), against a given model the band's degrees of freedom
+    that scaled the NRMSE gate, and the two checks that name physics where the
+    comparison named nothing (OP held at a limit, the set-point gain test:
+    :func:`after_comparison`)."""
     return {"evidence": stored_evidence(d),
             "slip_jump_p": d.tests.get("slip_jump_zero", {}).get("p_value"),
             "cycle_reproduced": bool(d.tests.get("closed_loop_cycle", {}).get(
                 "reproduced", False)),
             "dead_time_own_resolution": bool(d.details["dead_time_own_resolution"]),
             "slow_line": slow_line_evidence(d),
-            "band_dof": d.details["band_dof"] if d.model.source == "given" else None}
+            "band_dof": d.details["band_dof"] if d.model.source == "given" else None,
+            "op_held": bool(d.tests.get("op_held_at_limit", {}).get("held", False)),
+            "gain_flagged": bool(d.tests.get("setpoint_gain", {}).get("significant",
+                                                                      False))}
 
 
 def stored_evidence(d) -> str:
@@ -229,12 +234,34 @@ def after_main_band(row: pd.Series, pick: str, alpha: float, min_improvement: fl
                                alpha_full)
 
 
+def after_comparison(row: pd.Series, pick: str) -> str:
+    """``pick``, or where it is ``none`` what the diagnosis names after the comparison
+    from checks that set no threshold here: ``saturation`` where OP is held at a limit
+    (:func:`~stictionbench.diagnosis.diagnose.name_held_limit`), else
+    ``valve_characteristic`` where the set-point gain test flagged a gain error
+    (:func:`~stictionbench.diagnosis.diagnose.name_gain_error`). Rows stored before the
+    checks lack their flags and keep ``pick``."""
+    if pick != "none":
+        return pick
+    if _flag(row, "op_held"):
+        return "saturation"
+    return "valve_characteristic" if _flag(row, "gain_flagged") else pick
+
+
+def _flag(row: pd.Series, key: str) -> bool:
+    v = row.get(key, False)
+    if isinstance(v, str):
+        return v.strip().lower() == "true"
+    return bool(v) if v is not None and v == v else False
+
+
 def decide(row: pd.Series, alpha: float, min_improvement: float,
            alpha_full: float = FULL_DATA_ALPHA,
            gate: Callable[[float, float], float] = scaled_gate) -> str:
     """The shipped decision re-applied to one stored row at other thresholds: the main
     band's rule (:func:`~stictionbench.diagnosis.evidence.select`), then the second
-    look and the full-data test of the range hypotheses (:func:`after_main_band`). The
+    look and the full-data test of the range hypotheses (:func:`after_main_band`), then
+    the checks after the comparison (:func:`after_comparison`). The
     main band's NRMSE gate is scaled by the stored in-band degrees of freedom
     (:func:`~stictionbench.diagnosis.evidence.scaled_gate`; rows stored before they
     were, and model-free rows, keep ``min_improvement``; ``gate`` varies that law)."""
@@ -242,7 +269,8 @@ def decide(row: pd.Series, alpha: float, min_improvement: float,
                   min_improvement=main_band_gate(row, min_improvement, gate),
                   own_resolution=own_resolution_of(row),
                   cycle_reproduced=bool(row.get("cycle_reproduced", False)))
-    return after_main_band(row, pick, alpha, min_improvement, alpha_full)
+    return after_comparison(row, after_main_band(row, pick, alpha, min_improvement,
+                                                 alpha_full))
 
 
 def picks(df: pd.DataFrame, alpha: float, min_improvement: float) -> pd.Series:

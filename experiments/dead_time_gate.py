@@ -94,7 +94,8 @@ def one(family: str, cls: str, level: int, seed: int) -> dict:
             "dead_time_fit": dt["parameters"].get("dead_time", np.nan),
             "dead_time_p": dt["p_value"], "dead_time_improvement": dt["improvement"],
             "dead_time_at_bound": dt["at_bound"],
-            **{k: row[k] for k in ("evidence", "slip_jump_p", "slow_line", "band_dof")}}
+            **{k: row[k] for k in ("evidence", "slip_jump_p", "slow_line", "band_dof",
+                                   "op_held", "gain_flagged")}}
 
 
 def _named(g: pd.DataFrame, label: str) -> str:

@@ -92,6 +92,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from concealed import (  # noqa: E402
+    after_comparison,
     after_main_band,
     best_setting,
     decide,
@@ -148,11 +149,13 @@ def shipped(row: pd.Series) -> str:
 def _looked(rule: Callable[..., str]) -> Callable[..., str]:
     """``rule`` (a main-band rule) followed by what the package does after the main band
     at the shipped thresholds (:func:`concealed.after_main_band`: the second look for a
-    slow line, the range hypotheses' full-data test): every rule here differs from the
-    shipped one in the main band only."""
+    slow line, the range hypotheses' full-data test; then :func:`concealed.
+    after_comparison`: OP held at a limit, the set-point gain test): every rule here
+    differs from the shipped one in the main band only."""
     @functools.wraps(rule)
     def looked(row: pd.Series, *args: float) -> str:
-        return after_main_band(row, rule(row, *args), ALPHA, MIN_IMPROVEMENT)
+        return after_comparison(row, after_main_band(row, rule(row, *args), ALPHA,
+                                                     MIN_IMPROVEMENT))
     return looked
 
 

@@ -117,8 +117,11 @@ def block(first: int, cache: Path, jobs: int) -> pd.DataFrame:
     out["block"] = first
     if first < HOLD_CHECKED_FROM:
         out["predicted_default"] = with_op_hold(out)
+    out["gain_reread"] = False
     if first < GAIN_CHECKED_FROM:
-        out["predicted_default"] = with_gain_test(out, cache / f"h{first}_gain.csv", jobs)
+        new = with_gain_test(out, cache / f"h{first}_gain.csv", jobs)
+        out["gain_reread"] = new != out["predicted_default"]
+        out["predicted_default"] = new
     return out
 
 
@@ -172,6 +175,18 @@ def with_gain_test(df: pd.DataFrame, cache: Path, jobs: int) -> pd.Series:
         if df.at[i, "name"] in hit:
             pred[i] = "valve_characteristic"
     return pred
+
+
+def _gain_reread(df: pd.DataFrame) -> str:
+    """How many stored ``none`` verdicts the set-point gain test re-read, by class."""
+    hit = df[(df.block < GAIN_CHECKED_FROM)
+             & (df.predicted_default == "valve_characteristic")
+             & (df.get("gain_reread", pd.Series(False, index=df.index)))]
+    if not len(hit):
+        return "none changed"
+    by = hit["class"].value_counts()
+    return (f"{len(hit)} changed to `valve_characteristic`: "
+            + ", ".join(f"{k} {v}" for k, v in by.items()))
 
 
 def per16(ok: pd.Series, classes: pd.Series) -> str:
@@ -416,7 +431,10 @@ def report(df: pd.DataFrame) -> str:
         "adopted: `slip_jump_nuisance.md`, `slip_jump_symmetric.md`; 35000–38000 were drawn "
         "with no candidate, to narrow the estimate; 39000 scored the OP-hold check, which "
         "changed none of its verdicts; the earlier blocks' `none` verdicts are re-read with "
-        "it, which reads OP alone: `with_op_hold`). "
+        "it, which reads OP alone: `with_op_hold`; 40000 scored the set-point gain test, "
+        "which changed none of its verdicts either; the earlier blocks' `none` verdicts "
+        "are re-read with it, the recording made again: `with_gain_test`, "
+        f"{_gain_reread(df)}). "
         "No threshold was set on this family.",
         "",
         "## Pooled",

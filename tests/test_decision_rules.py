@@ -214,3 +214,23 @@ def test_without_band_gate_reads_the_gate_as_set():
     row = pd.concat([_row(lag_improvement=0.15, delay_p=0.2), pd.Series({"band_dof": 25.0})])
     assert dr.shipped(row) == "none"
     assert dr.without_band_gate(row) == "sensor_lag"
+
+
+def test_stored_rows_are_re_decided_with_the_checks_after_the_comparison():
+    import concealed
+
+    ev = json.dumps([{"physics": "none", "p_value": 1.0, "improvement": 0.0, "score": 0.0,
+                      "improvement_kstep": 0.0, "p_full": 1.0, "p_k_step": 1.0,
+                      "p_identification": None, "at_bound": False, "parameters": {}}])
+    base = {"evidence": ev, "slip_jump_p": None, "cycle_reproduced": False,
+            "dead_time_own_resolution": True, "slow_line": "", "band_dof": 150.0}
+    pick = concealed.decide(pd.Series(base), 0.05, 0.1)
+    assert pick == "none"  # a row stored before the checks keeps its verdict
+    held = concealed.decide(pd.Series({**base, "op_held": True, "gain_flagged": True}),
+                            0.05, 0.1)
+    assert held == "saturation"  # the OP hold is read first, as diagnose does
+    gain = concealed.decide(pd.Series({**base, "op_held": "False", "gain_flagged": "True"}),
+                            0.05, 0.1)
+    assert gain == "valve_characteristic"
+    assert concealed.after_comparison(pd.Series({"gain_flagged": True}), "stiction") == \
+        "stiction"

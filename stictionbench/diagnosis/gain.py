@@ -26,11 +26,14 @@ whose residual variance gives its standard error.
 Decision, used only where the comparison named nothing (:func:`.diagnose.name_gain_error`):
 ``valve_characteristic`` when the gain ratio differs from 1 at level :data:`GAIN_ALPHA`
 *and* by at least :data:`GAIN_TOLERANCE`. Both were set on the three tuning families of
-``experiments/concealed.py`` before the rule met any other data: across their 72 healthy
-loops the largest ``|ln(ratio)|`` was 0.107 (a ratio of 0.90 or 1.11), so a 15 % gain
-error is the smallest the rule names. Before the tolerance was fixed its flags on the
-independent sets A–C were also looked at, at 1.10 and at 1.15 (1.10 added four false
-alarms there, 1.15 one), so those sets are in-sample for it; the holdout family's block
+``experiments/concealed.py`` before the rule met any other data: across 72 of their
+healthy loops (seeds 100–111) the largest ``|ln(ratio)|`` was 0.107 (a ratio of 0.90 or
+1.11), so a 15 % gain error is the smallest the rule names. At the benchmark's own seeds
+(0–11, ``experiments/setpoint_gain.py``) the largest is 0.136, just under the
+tolerance's 0.140: the margin is thin, and no healthy loop there is flagged. Before the
+tolerance was fixed its flags on the independent sets A–C were also looked at, at 1.10
+and at 1.15 (1.10 added four false alarms there, 1.15 one), so those sets are in-sample
+for it; the holdout family's block
 40000 and the independent sets D and E (fresh seeds of the same two generators) were drawn
 after it was fixed (``experiments/setpoint_gain.py``, ``make independent``).
 """
