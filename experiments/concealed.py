@@ -61,6 +61,7 @@ from concealed_families import (  # noqa: E402
 )
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
+from stictionbench.diagnosis.diagnose import after_comparison as diagnosis_after_comparison  # noqa: E402
 from stictionbench.diagnosis.evidence import (  # noqa: E402
     FULL_DATA_ALPHA,
     OWN_RESOLUTION,
@@ -235,17 +236,12 @@ def after_main_band(row: pd.Series, pick: str, alpha: float, min_improvement: fl
 
 
 def after_comparison(row: pd.Series, pick: str) -> str:
-    """``pick``, or where it is ``none`` what the diagnosis names after the comparison
-    from checks that set no threshold here: ``saturation`` where OP is held at a limit
-    (:func:`~stictionbench.diagnosis.diagnose.name_held_limit`), else
-    ``valve_characteristic`` where the set-point gain test flagged a gain error
-    (:func:`~stictionbench.diagnosis.diagnose.name_gain_error`). Rows stored before the
-    checks lack their flags and keep ``pick``."""
-    if pick != "none":
-        return pick
-    if _flag(row, "op_held"):
-        return "saturation"
-    return "valve_characteristic" if _flag(row, "gain_flagged") else pick
+    """``pick`` followed by what the diagnosis names after the comparison from the
+    stored flags (:func:`stictionbench.diagnosis.diagnose.after_comparison`: OP held at a
+    limit, the set-point gain test; thresholds are not varied here). Rows stored before
+    the checks lack their flags and keep ``pick``."""
+    return diagnosis_after_comparison(pick, _flag(row, "op_held"),
+                                      _flag(row, "gain_flagged"))
 
 
 def _flag(row: pd.Series, key: str) -> bool:

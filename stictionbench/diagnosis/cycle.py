@@ -47,6 +47,7 @@ from ..sim.kernel import run_loop
 from ..sim.valves import KanoValve, init_state
 from .model import PIFit
 from .openloop import highpass
+from .strict_json import finite_values
 
 #: the simulated period may differ from the recorded one by this factor (either way)
 PERIOD_TOLERANCE = 1.3
@@ -82,14 +83,11 @@ class CycleCheck:
     def to_dict(self) -> dict[str, Any]:
         """The JSON form; a non-finite number (the regularity of a perfectly periodic
         cycle is infinite) is ``None``, so the CLI's strict JSON can hold it."""
-        def finite(d: dict[str, Any]) -> dict[str, Any]:
-            return {k: None if isinstance(v, float) and not math.isfinite(v) else v
-                    for k, v in d.items()}
-
         return {"applicable": self.applicable, "reproduced": self.reproduced,
-                "reason": self.reason, "recorded": finite(self.recorded),
-                "simulated": finite(self.simulated), "log_ratios": finite(self.log_ratios),
-                "controller": finite(self.controller),
+                "reason": self.reason, "recorded": finite_values(self.recorded),
+                "simulated": finite_values(self.simulated),
+                "log_ratios": finite_values(self.log_ratios),
+                "controller": finite_values(self.controller),
                 "tolerances": {"period": PERIOD_TOLERANCE, "amplitude": AMPLITUDE_TOLERANCE}}
 
 

@@ -80,6 +80,7 @@ from .process import (
 
 __all__ = ["Diagnosis", "closed_loop_replay", "compare", "cycle_evidence", "diagnose", "fit",
            "fit_fopdt", "hypothesise", "identify_fopdt", "locate", "name_gain_error",
+           "after_comparison",
            "name_held_limit", "own_resolution", "validate", "valve_output"]
 
 N_BLOCKS = 5
@@ -694,8 +695,11 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d = _assemble(cmp, loc, fits, verdict, ham)
     if look is not None:
         d.details["slow_line"] = look.to_dict()
-    d = name_held_limit(d, held_at_limit(cmp.rec.OP, cmp.ctx.op_range))
-    d = name_gain_error(d, setpoint_gain(cmp))
+    held, gain = held_at_limit(cmp.rec.OP, cmp.ctx.op_range), setpoint_gain(cmp)
+    named = after_comparison(d.missing_physics, bool(held["held"]), gain.significant)
+    changed = named != d.missing_physics
+    d = name_held_limit(d, held, changed and named == "saturation")
+    d = name_gain_error(d, gain, changed and named == "valve_characteristic")
     d.details["band_dof"] = dof
     d.details["nrmse_gate"] = gate
     if (why := record_warning(dof)) is not None:
@@ -704,11 +708,33 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     return d
 
 
-def name_held_limit(d: Diagnosis, held: dict[str, Any]) -> Diagnosis:
-    """Name ``saturation`` where the comparison named nothing and OP is held at a limit
-    (:func:`.op_limit.held_at_limit`), in place; the check is reported under
-    ``tests["op_held_at_limit"]`` either way, and a hold beside another verdict draws
-    ``details["limit_warning"]``.
+def after_comparison(pick: str, op_held: bool, gain_flagged: bool) -> str:
+    """The verdict after the checks that name physics where the comparison named nothing
+    (``pick == "none"``): ``saturation`` where OP is held at a limit
+    (:func:`name_held_limit`), else ``valve_characteristic`` where the set-point gain test
+    flagged a gain error (:func:`name_gain_error`); otherwise ``pick``. The one place that
+    orders them, for :func:`diagnose` and for re-decisions from stored flags
+    (``experiments/concealed.py``).
+
+    Examples
+    --------
+    >>> after_comparison("none", True, True), after_comparison("none", False, True)
+    ('saturation', 'valve_characteristic')
+    >>> after_comparison("stiction", True, True)
+    'stiction'
+    """
+    if pick != "none":
+        return pick
+    if op_held:
+        return "saturation"
+    return "valve_characteristic" if gain_flagged else pick
+
+
+def name_held_limit(d: Diagnosis, held: dict[str, Any], name: bool) -> Diagnosis:
+    """Name ``saturation`` from OP held at a limit (:func:`.op_limit.held_at_limit`) when
+    ``name`` (:func:`after_comparison` chose it: the comparison named nothing), in place;
+    the check is reported under ``tests["op_held_at_limit"]`` either way, and a hold
+    beside another verdict draws ``details["limit_warning"]``.
 
     A recorded OP clamped at its limit drives the plant exactly as recorded, so the
     nominal model's response to it shows no mismatch (:mod:`.op_limit`): the saturation
@@ -720,7 +746,7 @@ def name_held_limit(d: Diagnosis, held: dict[str, Any]) -> Diagnosis:
     what = (f"OP held at its {held['side']} limit ({held['limit']:.4g}) for "
             f"{held['fraction']:.1%} of the record ({held['runs']} holds, the longest "
             f"{held['longest_run']} samples): the loop is open while it stays there")
-    if d.missing_physics != "none":
+    if not name:
         d.details["limit_warning"] = what
         return d
     key = "op_high" if held["side"] == "high" else "op_low"
@@ -737,10 +763,11 @@ def name_held_limit(d: Diagnosis, held: dict[str, Any]) -> Diagnosis:
     return d
 
 
-def name_gain_error(d: Diagnosis, test: GainTest) -> Diagnosis:
-    """Name ``valve_characteristic`` where nothing else was named and the gain measured
-    through the set point's moves differs from the model's (:func:`.gain.setpoint_gain`),
-    in place; the test is reported under ``tests["setpoint_gain"]`` either way.
+def name_gain_error(d: Diagnosis, test: GainTest, name: bool) -> Diagnosis:
+    """Name ``valve_characteristic`` from the gain measured through the set point's moves
+    (:func:`.gain.setpoint_gain`) when ``name`` (:func:`after_comparison` chose it:
+    nothing else was named and the gain differs from the model's), in place; the test is
+    reported under ``tests["setpoint_gain"]`` either way.
 
     Every hypothesis fits the gain freely, so an installed characteristic whose slope at
     the operating point is not the model's, over an OP range too narrow for its curve to
@@ -749,7 +776,7 @@ def name_gain_error(d: Diagnosis, test: GainTest) -> Diagnosis:
     interval); its fit is the nominal model with the given gain (``fit.nominal``) and
     with the measured one (``fit.improved``), validation NRMSE both."""
     d.tests["setpoint_gain"] = {**test.to_dict(), "named": False}
-    if d.missing_physics != "none" or not test.significant:
+    if not name:
         return d
     d.missing_physics, d.mismatch_detected = "valve_characteristic", True
     if test.y is not None and test.pred is not None:

@@ -52,6 +52,7 @@ from ..sim.kernel import run_loop
 from ..sim.valves import LinearValve, init_state
 from .noise import fit_noise_model
 from .openloop import fopdt_response
+from .strict_json import finite_or_none, finite_values
 
 if TYPE_CHECKING:  # pragma: no cover
     from .diagnose import Comparison
@@ -91,11 +92,8 @@ class GainTest:
     pred: np.ndarray | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        def finite(v: Any) -> Any:
-            return None if isinstance(v, float) and not math.isfinite(v) else v
-
-        out = {f.name: finite(getattr(self, f.name)) for f in fields(self) if f.repr}
-        out["interval"] = [finite(float(v)) for v in self.interval]
+        out = finite_values({f.name: getattr(self, f.name) for f in fields(self) if f.repr})
+        out["interval"] = [finite_or_none(float(v)) for v in self.interval]
         return out | {"alpha": GAIN_ALPHA, "tolerance": GAIN_TOLERANCE}
 
 
