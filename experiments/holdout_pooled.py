@@ -40,7 +40,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 import holdout_family as hf  # noqa: E402
 
 from stictionbench.diagnosis import load_model  # noqa: E402
-from stictionbench.diagnosis.diagnose import compare  # noqa: E402
+from stictionbench.diagnosis.diagnose import after_comparison, compare  # noqa: E402
 from stictionbench.diagnosis.gain import setpoint_gain  # noqa: E402
 from stictionbench.diagnosis.op_limit import held_at_limit  # noqa: E402
 from stictionbench.io import atomic_path, read_recording, write_text  # noqa: E402
@@ -74,10 +74,10 @@ BLIND = (21000, 22000, 23000, 24000, 25000, 26000, 27000, 28000, 29000, 30000, 3
          32000, 33000, 34000, 35000, 36000, 37000, 38000, 39000, 40000)
 SEEDS, NONE_SEEDS = 12, 24
 #: the first block diagnosed with the OP-hold check; the stored verdicts of earlier ones
-#: are re-read with it (:func:`with_op_hold`)
+#: are re-read with it (:func:`with_checks`)
 HOLD_CHECKED_FROM = 39000
 #: the first block diagnosed with the set-point gain test; the stored ``none`` verdicts of
-#: earlier ones are re-read with it (:func:`with_gain_test`)
+#: earlier ones are re-read with it (:func:`with_checks`)
 GAIN_CHECKED_FROM = 40000
 #: in-band degrees of freedom bins of the report (the band-dof gate's reference is 100)
 DOF_BINS = (0.0, 25.0, 35.0, 60.0, 100.0, 200.0, np.inf)
@@ -115,49 +115,38 @@ def block(first: int, cache: Path, jobs: int) -> pd.DataFrame:
     out["tau"] = [hf.draw(c, int(lv), int(sd)).tau
                   for c, lv, sd in zip(df["class"], df.level, df.seed, strict=True)]
     out["block"] = first
-    if first < HOLD_CHECKED_FROM:
-        out["predicted_default"] = with_op_hold(out)
     out["gain_reread"] = False
     if first < GAIN_CHECKED_FROM:
-        new = with_gain_test(out, cache / f"h{first}_gain.csv", jobs)
-        out["gain_reread"] = new != out["predicted_default"]
-        out["predicted_default"] = new
+        out["predicted_default"], out["gain_reread"] = with_checks(
+            out, first, cache / f"h{first}_checks.csv", jobs)
     return out
 
 
-def with_op_hold(df: pd.DataFrame) -> pd.Series:
-    """Stored verdicts of a block diagnosed before the OP-hold check
-    (:func:`stictionbench.diagnosis.diagnose.name_held_limit`) re-read with it: a ``none``
-    whose recording holds OP at a limit (:func:`~stictionbench.diagnosis.op_limit.
-    held_at_limit`, which reads OP alone; the recording made again) becomes
-    ``saturation``; every other verdict stands, as the check leaves it."""
-    pred = df["predicted_default"].copy()
-    for i in df.index[pred == "none"]:
-        _, sig = hf.make_recording(df.at[i, "class"], int(df.at[i, "level"]),
-                                   int(df.at[i, "seed"]))
-        if held_at_limit(sig["OP"], infer_op_range(sig["OP"]))["held"]:
-            pred[i] = "saturation"
-    return pred
-
-
-def _gain_flag(job: tuple[str, int, int]) -> tuple[str, bool]:
-    """The set-point gain test on one holdout recording, made again (in a temporary
-    directory, read back as a user's CSV and YAML)."""
+def _checks(job: tuple[str, int, int]) -> tuple[str, bool, bool]:
+    """One holdout recording made again (in a temporary directory): whether its OP is
+    held at a limit (:func:`~stictionbench.diagnosis.op_limit.held_at_limit`, which reads
+    OP alone) and whether the set-point gain test flags it
+    (:func:`stictionbench.diagnosis.gain.setpoint_gain`: stage 1 of the diagnosis and the
+    test, on the CSV and YAML read back as a user's)."""
     cls, level, seed = job
+    c, sig = hf.make_recording(cls, level, seed)
+    held = bool(held_at_limit(sig["OP"], infer_op_range(sig["OP"]))["held"])
     with tempfile.TemporaryDirectory() as tmp:
-        j = hf.generate(cls, level, seed, Path(tmp))
+        j = hf.write_job(c, sig, Path(tmp))
         t = setpoint_gain(compare(read_recording(j["csv"], warn=False),
                                   load_model(j["model"])))
-    return j["name"], bool(t.significant)
+    return j["name"], held, bool(t.significant)
 
 
-def with_gain_test(df: pd.DataFrame, cache: Path, jobs: int) -> pd.Series:
-    """Stored verdicts of a block diagnosed before the set-point gain test
-    (:func:`stictionbench.diagnosis.diagnose.name_gain_error`) re-read with it: a ``none``
-    whose recording's gain, measured through the set point, differs from the model's
-    (:func:`stictionbench.diagnosis.gain.setpoint_gain`: stage 1 of the diagnosis and the
-    test, the recording made again) becomes ``valve_characteristic``; every other verdict
-    stands, as the rule leaves it. The flags are kept in ``cache``."""
+def with_checks(df: pd.DataFrame, first: int, cache: Path,
+                jobs: int) -> tuple[pd.Series, pd.Series]:
+    """Stored verdicts of a block diagnosed before the checks after the comparison
+    re-read with them (:func:`stictionbench.diagnosis.diagnose.after_comparison`): the
+    OP-hold check for blocks before :data:`HOLD_CHECKED_FROM`, the set-point gain test
+    for blocks before :data:`GAIN_CHECKED_FROM`; only a ``none`` can change, every other
+    verdict stands, as the checks leave it. Each ``none`` recording is made again once
+    (:func:`_checks`) and its flags are kept in ``cache``. Returns the verdicts and where
+    the gain test changed one."""
     pred = df["predicted_default"].copy()
     todo = df.index[pred == "none"]
     if cache.is_file():
@@ -166,15 +155,20 @@ def with_gain_test(df: pd.DataFrame, cache: Path, jobs: int) -> pd.Series:
         jobs_ = [(df.at[i, "class"], int(df.at[i, "level"]), int(df.at[i, "seed"]))
                  for i in todo]
         with ProcessPoolExecutor(jobs) as ex:
-            got = list(ex.map(_gain_flag, jobs_, chunksize=4))
-        flags = pd.DataFrame(got, columns=["name", "gain_flagged"])
+            got = list(ex.map(_checks, jobs_, chunksize=4))
+        flags = pd.DataFrame(got, columns=["name", "op_held", "gain_flagged"])
         with atomic_path(cache) as tmp:
             flags.to_csv(tmp, index=False)
-    hit = set(flags.name[flags.gain_flagged])
+    f = flags.set_index("name")
+    by_gain = pd.Series(False, index=df.index)
     for i in todo:
-        if df.at[i, "name"] in hit:
-            pred[i] = "valve_characteristic"
-    return pred
+        n = df.at[i, "name"]
+        new = after_comparison("none",
+                               first < HOLD_CHECKED_FROM and bool(f.at[n, "op_held"]),
+                               first < GAIN_CHECKED_FROM and bool(f.at[n, "gain_flagged"]))
+        pred[i] = new
+        by_gain[i] = new == "valve_characteristic"
+    return pred, by_gain
 
 
 def _gain_reread(df: pd.DataFrame) -> str:
@@ -431,9 +425,9 @@ def report(df: pd.DataFrame) -> str:
         "adopted: `slip_jump_nuisance.md`, `slip_jump_symmetric.md`; 35000–38000 were drawn "
         "with no candidate, to narrow the estimate; 39000 scored the OP-hold check, which "
         "changed none of its verdicts; the earlier blocks' `none` verdicts are re-read with "
-        "it, which reads OP alone: `with_op_hold`; 40000 scored the set-point gain test, "
+        "it, which reads OP alone: `with_checks`; 40000 scored the set-point gain test, "
         "which changed none of its verdicts either; the earlier blocks' `none` verdicts "
-        "are re-read with it, the recording made again: `with_gain_test`, "
+        "are re-read with it, the recording made again, `with_checks`: "
         f"{_gain_reread(df)}). "
         "No threshold was set on this family.",
         "",
