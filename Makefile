@@ -96,8 +96,9 @@ concealed: venv
 # each by a separate author; READMEs there), 192 recordings per set, diagnosed as the
 # command does; sets D and E are fresh seeds of the same two generators, first drawn to
 # score the set-point gain test (stictionbench/diagnosis/gain.py) after it was fixed;
-# then the gain test across families and the controller's rate varied on fresh healthy
-# loops of the first generator (about 20 minutes on 2 cores)
+# then the gain test across families, the controller's rate varied on fresh healthy
+# loops of the first generator, and the hidden physics of every set put through the
+# diagnosis's own test (oracle_ceiling; about 25 minutes on 2 cores)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -111,6 +112,7 @@ independent: venv
 	done
 	$(BIN)/python experiments/setpoint_gain.py --jobs 2
 	$(BIN)/python experiments/snapshot_op.py --loops 48 --jobs 2
+	$(BIN)/python experiments/oracle_ceiling.py --jobs 2
 
 # the holdout family pooled over its seed blocks at the current comparison band (22 x 216
 # recordings, re-run by the shipped code; block CSVs cached in .cache/holdout_blocks), the

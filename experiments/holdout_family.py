@@ -394,6 +394,24 @@ def _valve(c: Case, u: float, s: dict) -> float:
     return u
 
 
+#: the loop's steady operating point (OP, valve position and flow start here)
+OP0 = 50.0
+
+
+def valve_state(op0: float = OP0) -> dict[str, float | bool]:
+    """The valve models' state at rest at ``op0`` (:func:`_valve`)."""
+    return {"u_prev": op0, "moving": False, "u_stop": op0, "d": 0.0, "y": op0, "ur": 0.0,
+            "x_prev": op0, "v_prev": 0.0, "stuck": True, "x_ss": op0}
+
+
+def valve_positions(c: Case, op: np.ndarray) -> np.ndarray:
+    """What case ``c``'s valve did under the recorded ``op``: the PI runs in step with
+    the historian, so its valve saw exactly the recorded samples (:func:`simulate`)."""
+    s = valve_state()
+    _valve(c, OP0, s)
+    return np.array([_valve(c, float(u), s) for u in op])
+
+
 def simulate(c: Case, rng: np.random.Generator) -> dict[str, np.ndarray]:
     """The loop at 0.1 s sub-steps, the PI and the historian every 1 s."""
     n = int(DURATION) + 1
@@ -414,9 +432,8 @@ def simulate(c: Case, rng: np.random.Generator) -> dict[str, np.ndarray]:
     if c.cls == "oscillatory_disturbance":
         osc = tr["amplitude"] * np.sin(2 * math.pi * np.arange(n) / tr["period"]
                                        + rng.uniform(0, 2 * math.pi))
-    op0 = 50.0
-    s = {"u_prev": op0, "moving": False, "u_stop": op0, "d": 0.0, "y": op0, "ur": 0.0,
-         "x_prev": op0, "v_prev": 0.0, "stuck": True, "x_ss": op0}
+    op0 = OP0
+    s = valve_state(op0)
     mv0 = _valve(c, op0, s)
     line = [mv0] * delay  # MV applied θ ago (0.1 s resolution)
     x, ym, op, e_prev = 0.0, 0.0, op0, 0.0
