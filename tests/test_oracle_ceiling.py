@@ -1,7 +1,9 @@
 """``experiments/oracle_ceiling.py`` puts the physics an independent generator hid through
 the diagnosis's own test: the regenerated recording is the stored one, a sticky valve's
 true position beats the nominal model on a level-1 recording, the recorded OP itself
-as the "oracle" changes nothing, and the hypothesis registry is left as it was."""
+as the "oracle" changes nothing, the hypothesis registry is left as it was, and the
+replay of generator C's valves between samples is rate-independent where the models are
+(a dead band, Kano's valve) and moved by the jitter."""
 
 from __future__ import annotations
 
@@ -57,3 +59,19 @@ def test_ceiling_keeps_ours_and_adds_the_oracle():
     # ours: stiction 1/2, none 1/2 -> 8.0 of 16; with the oracle stiction 2/2 -> 12.0
     assert row["ours, of 16"].startswith("8.0 ")
     assert row["ours or the oracle, of 16"].startswith("12.0 ")
+
+
+def test_valves_between_samples():
+    t = np.arange(400.0)
+    op = 50 + 10 * np.sin(2 * np.pi * t / 100) + 0.3 * np.sin(2 * np.pi * t / 7)
+    for eff in ({"class": "deadband", "d": 3.0},
+                {"class": "stiction", "model": "Kano2004", "S": 3.0, "J": 1.0}):
+        calm = oc.replays(op, eff, 5, 0.0)
+        # OP interpolated linearly: the same path, only finer; a play operator and
+        # Kano's valve depend on the path, not on its speed
+        np.testing.assert_allclose(calm["expected"], calm["sampled"], atol=1e-12)
+        assert np.ptp(calm["sampled"] - op) > 1.0  # the valve lags OP: not OP itself
+        shaken = oc.replays(op, eff, 5, 1.0)
+        assert np.max(np.abs(shaken["expected"] - shaken["sampled"])) > 0.1
+    band = oc.replays(op, {"class": "deadband", "d": 3.0}, 1, 0.0)["sampled"]
+    assert np.max(np.abs(band - op)) <= 1.5 + 1e-9  # never further than half the band
