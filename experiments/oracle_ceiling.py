@@ -51,7 +51,6 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
-import math
 import sys
 import time
 from dataclasses import replace
@@ -71,8 +70,7 @@ from fresh_recordings import rate_bars, run  # noqa: E402
 
 from stictionbench.diagnosis import load_model  # noqa: E402
 from stictionbench.diagnosis.fit import fit_at  # noqa: E402
-from stictionbench.diagnosis.hypotheses import HYPOTHESES, Hypothesis, Nominal  # noqa: E402
-from stictionbench.diagnosis.noise import fit_noise_model  # noqa: E402
+from stictionbench.diagnosis.hypotheses import HYPOTHESES, Hypothesis  # noqa: E402
 from stictionbench.io import atomic_path, read_recording, write_text  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -238,25 +236,15 @@ def judge(rec, model, cls: str, truth: dict[str, Any]) -> dict[str, Any]:
     cmp = DIAGNOSE.compare(rec, model)
     name, h, ft = _oracle_fit(cmp, cls, truth)
     fits = {"none": cmp.nominal, name: ft}
-    # the prediction-error refit of ``diagnose.fit``: one noise model, that of the
-    # better output-error fit, then every fit's linear part re-estimated under it
-    noise = fit_noise_model(fits[min(fits, key=lambda k: fits[k].cost_train)]
-                            .resid[cmp.prob.train])
-    for k, f in list(fits.items()):
-        new = fit_at(cmp.prob.with_ctx(f.ctx).with_noise(noise),
-                     Nominal() if k == "none" else h, f.p)
-        new.n_params = f.n_params
-        fits[k] = new
-    val = cmp.prob.val
-    sy = float(np.std(cmp.prob.y[val])) or 1.0
-    for f in fits.values():
-        f.mse_val = float(np.mean(f.resid[val] ** 2))
-        f.nrmse_val = math.sqrt(f.mse_val) / sy
     # the registry by its module (not this script's global: run from ``__main__`` a
     # worker receives this function's globals by value, a copy the package never reads)
     registry = importlib.import_module("stictionbench.diagnosis.hypotheses").HYPOTHESES
     with mock.patch.dict(registry, {"oracle": h} if name == "oracle" else {}):
+        # ``diagnose.fit``'s prediction-error refit, the oracle kept at its truth
+        DIAGNOSE._prediction_error_refit(cmp, fits, fixed=True)
+        DIAGNOSE.validation_nrmse(cmp, fits)
         verdict = DIAGNOSE.validate(cmp, fits)
+    val = cmp.prob.val
     r = next(x for x in verdict.ranking if x["physics"] == name)
     # the effect's footprint on the comparison: what the true physics changes in the
     # band-passed prediction, against what the nominal model leaves unexplained

@@ -414,7 +414,8 @@ def _valve_fits(cmp: Comparison, names: tuple[str, ...], h: HammersteinResult,
         fits["deadband"] = ft
 
 
-def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit]) -> None:
+def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit], *,
+                            fixed: bool = False) -> None:
     """Refit every hypothesis by its one-step prediction errors ``H⁻¹(y − ŷ)`` under one
     noise model ``H``: the AR (or integrated AR) model of the output error of the best
     output-error fit — the larger model's, so that a limit cycle or a line the nominal
@@ -425,13 +426,15 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit]) -> None:
     fit: its S, J are kept and only the gain is refitted (refining them here, from its
     S, J and from the dead band's optimum, helped the seen holdout blocks but not the
     next blind one and lost stiction on regulatory loops and ISDB: not shipped, see
-    ``experiments/holdout_family.py``'s ``SEEN_FRESH[9000]``)."""
+    ``experiments/holdout_family.py``'s ``SEEN_FRESH[9000]``). ``fixed`` keeps every
+    hypothesis at its parameters and refits only its linear part (a hypothesis whose
+    parameters are known: ``experiments/oracle_ceiling.py``)."""
     best = min(fits, key=lambda k: fits[k].cost_train)
     noise = fit_noise_model(fits[best].resid[cmp.prob.train])
     for name, ft in list(fits.items()):
         prob = cmp.prob.with_ctx(ft.ctx).with_noise(noise)
         h = Nominal() if name == "none" else HYPOTHESES[name]
-        if name == "stiction" or not h.params:
+        if fixed or name == "stiction" or not h.params:
             new = fit_at(prob, h, ft.p)
             new.intervals, new.n_params = ft.intervals, ft.n_params
         elif h.basin_width(ft.ctx, ft.p) is not None:
@@ -468,13 +471,19 @@ def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA) -> tup
         _valve_fits(cmp, names, h, fits)
     if cmp.pem:
         _prediction_error_refit(cmp, fits)
+    validation_nrmse(cmp, fits)
+    return fits, h
+
+
+def validation_nrmse(cmp: Comparison, fits: dict[str, Fit]) -> None:
+    """Each fit's validation mean square error and NRMSE (the simulation error users
+    understand), set on the fit."""
     val = cmp.prob.val
     sy = float(np.std(cmp.prob.y[val])) or 1.0
     for ft in fits.values():
         r = ft.resid[val]
         ft.mse_val = float(np.mean(r * r))
         ft.nrmse_val = math.sqrt(ft.mse_val) / sy
-    return fits, h
 
 
 def cycle_evidence(rec: Recording, model: NominalModel, valve: dict[str, Any], f_hp: float,
