@@ -49,6 +49,7 @@ last).
 from __future__ import annotations
 
 import argparse
+import copy
 import importlib
 import importlib.util
 import sys
@@ -228,12 +229,14 @@ def holdout_row(row: dict[str, Any]) -> dict[str, Any]:
     return {**base, "oracle": "replayed", **judge(rec, model, cls, truth)}
 
 
-def judge(rec, model, cls: str, truth: dict[str, Any]) -> dict[str, Any]:
+def judge(rec, model, cls: str, truth: dict[str, Any], cmp=None) -> dict[str, Any]:
     """The oracle of ``truth`` (:func:`truth_of`'s keys) for a recording of class
-    ``cls`` through the diagnosis's comparison, prediction-error refit and gates:
+    ``cls`` through the diagnosis's comparison (``cmp``: ``diagnose.compare(rec, model)``,
+    made here when not given; left as it was), prediction-error refit and gates:
     ``footprint``, ``oracle_p``, ``oracle_improvement``, ``oracle_passes``,
     ``oracle_p_only``, ``nrmse_nominal``."""
-    cmp = DIAGNOSE.compare(rec, model)
+    # the refit replaces the comparison's nominal fit: a shallow copy keeps the caller's
+    cmp = DIAGNOSE.compare(rec, model) if cmp is None else copy.copy(cmp)
     name, h, ft = _oracle_fit(cmp, cls, truth)
     fits = {"none": cmp.nominal, name: ft}
     # the registry by its module (not this script's global: run from ``__main__`` a
@@ -406,13 +409,14 @@ def scaled_row(setname: str, row: dict[str, Any], k: float) -> dict[str, Any]:
     cond = gen.draw_conditions(seed, level, gen.draw_loop(seed))
     m = max(1, int(round(1.0 / made["loop"]["tc"])))
     rep = replays(np.asarray(rec.OP, float), drawn, m, float(cond["op_noise"]))
+    cmp = DIAGNOSE.compare(rec, model)  # one comparison for the three oracles
     out = {"set": setname, "name": row["name"], "class": cls, "scale": k,
            "controller_period": row["controller_period"],
            "predicted": predicted, "ours": predicted == cls,
            "stored_predicted": row["predicted"],
-           **judge(rec, model, cls, {"series": mv})}
+           **judge(rec, model, cls, {"series": mv}, cmp)}
     for what, series in rep.items():
-        j = judge(rec, model, cls, {"series": series})
+        j = judge(rec, model, cls, {"series": series}, cmp)
         out[f"{what}_passes"] = j["oracle_passes"]
         out[f"{what}_improvement"] = j["oracle_improvement"]
     return out
