@@ -331,6 +331,9 @@ def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bo
             if (np.isnan(stamps) & col.notna().to_numpy()).any():
                 raise InputError(f"{source}: column t: timestamps not readable")
             cols[name] = stamps
+        elif name == "t" and pd.api.types.is_timedelta64_dtype(col):
+            # durations since the record's start: seconds, as a numeric t is
+            cols[name] = col.dt.total_seconds().to_numpy(dtype=float)
         else:
             if pd.api.types.is_bool_dtype(col):  # as from CSV, where true/false is text
                 raise InputError(f"{source}: column {name} holds true/false values, not "

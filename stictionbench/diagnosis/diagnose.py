@@ -169,6 +169,11 @@ class Location:
     ratio: float
 
 
+#: the least spread of PV the diagnosis computes with: variances of residuals a few
+#: orders below it would underflow double precision (about 1e-308)
+MIN_PV_SPREAD = 1e-100
+
+
 def _check(rec: Recording) -> None:
     src = rec.meta.get("source", "recording")
     if np.ptp(rec.OP) <= 1e-9 * max(1.0, float(np.max(np.abs(rec.OP)))):
@@ -176,6 +181,10 @@ def _check(rec: Recording) -> None:
                          "to move")
     if np.ptp(rec.PV) <= 0:
         raise InputError(f"{src}: PV is constant; nothing to diagnose")
+    if np.ptp(rec.PV) < MIN_PV_SPREAD:
+        raise InputError(f"{src}: PV varies by only {np.ptp(rec.PV):.3g}, too little for "
+                         "the diagnosis's arithmetic (its squares underflow): give PV in "
+                         "larger units, and the model's gain with it")
     if len(rec) < 200:
         raise InputError(f"{src}: {len(rec)} samples; a diagnosis needs at least 200 (a "
                          "training and a validation part)")
@@ -675,7 +684,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     if slip_jump_bootstrap:
         from .slip_bootstrap import check_request
 
-        check_request(rec, model, slip_jump_bootstrap)
+        check_request(rec, model, slip_jump_bootstrap, bootstrap_seed)
     cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor, pem=pem,
                   op_range=op_range)
     loc = locate(cmp)

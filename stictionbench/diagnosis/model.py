@@ -56,6 +56,8 @@ def _num(path: str, key: str, value: Any, *, positive: bool = False,
         v = float(value)
     except (TypeError, ValueError):
         raise InputError(f"{path}: {key}: expected a number, got {value!r}") from None
+    except OverflowError:  # an integer beyond a float's range
+        raise InputError(f"{path}: {key}: must be finite") from None
     if not math.isfinite(v):
         raise InputError(f"{path}: {key}: must be finite")
     if positive and v <= 0:

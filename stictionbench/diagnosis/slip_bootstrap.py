@@ -36,6 +36,9 @@ from .openloop import fopdt_coefficients, fopdt_response
 
 #: the least number of null recordings: with fewer, a p-value of 0.05 is out of reach
 MIN_B = 19
+#: the most null recordings a request may ask for: at about 0.4 s each, 9999 take an hour
+#: (999 give a p-value resolved to 0.001, Davison & Hinkley 1997, ch. 4.2)
+MAX_B = 9999
 
 
 def sieve_disturbance(r: np.ndarray, n: int, rng: np.random.Generator,
@@ -91,12 +94,19 @@ def dead_band_loop(K: float, tau: float, theta: float, kc: float, ti: float, wid
     return y, u
 
 
-def check_request(rec: Recording, model: NominalModel | None, B: int) -> None:
+def check_request(rec: Recording, model: NominalModel | None, B: int,
+                  seed: int = 0) -> None:
     """Refuse a bootstrap that cannot run, before any fitting: fewer than :data:`MIN_B`
-    null recordings, no given model with its PI, or no set point."""
+    or more than :data:`MAX_B` null recordings, a negative seed, no given model with its
+    PI, or no set point."""
     if B < MIN_B:
         raise InputError(f"--slip-jump-bootstrap needs at least {MIN_B} null recordings, "
                          f"got {B}")
+    if B > MAX_B:
+        raise InputError(f"--slip-jump-bootstrap: at most {MAX_B} null recordings (about "
+                         f"0.4 s each), got {B}")
+    if seed < 0:
+        raise InputError(f"--bootstrap-seed: expected a seed >= 0, got {seed}")
     if model is None or model.kc is None or model.ti is None or rec.SP is None:
         raise InputError("--slip-jump-bootstrap needs --model with the PI (kc, ti) and a "
                          "recorded set point: the null loop is the given model's")

@@ -72,9 +72,22 @@ class Consensus:
         p = Path(path) if path else conf_dir() / "consensus" / "default.yaml"
         try:
             d = strict_yaml.load(p.read_text(encoding="utf-8")) or {}
-            return cls(tuple(d["methods"]), float(d["threshold"]), int(d["min_votes"]))
-        except (OSError, KeyError, TypeError, ValueError, yaml.YAMLError) as exc:
+            c = cls(tuple(d["methods"]), float(d["threshold"]), int(d["min_votes"]))
+        except KeyError as exc:
+            raise InputError(f"{p}: not a consensus file (no {exc} key)") from None
+        except (OSError, TypeError, ValueError, yaml.YAMLError) as exc:
             raise InputError(f"{p}: not a consensus file ({exc})") from None
+        unknown = [m for m in c.methods if m not in PUBLISHED]
+        if not c.methods or unknown:
+            raise InputError(f"{p}: methods must be some of {', '.join(PUBLISHED)}"
+                             + (f"; unknown: {', '.join(map(str, unknown))}" if unknown
+                                else "; none given"))
+        if not 0.0 < c.threshold <= 1.0:  # NaN fails too
+            raise InputError(f"{p}: threshold is a share of the deciding methods' votes, "
+                             f"in (0, 1]; got {c.threshold}")
+        if c.min_votes < 1:
+            raise InputError(f"{p}: min_votes must be at least 1; got {c.min_votes}")
+        return c
 
 
 def _tie_key(c: Consensus) -> tuple[float, float, int]:

@@ -554,6 +554,9 @@ def load_csv_dir(
     recs: dict[str, Recording] = {}
     skipped: Skipped = []
     for f in sorted(d.glob("*.csv")):
+        if not f.is_file():  # a pipe, socket or device would block the read; a folder
+            skipped.append((f.name, "not a regular file"))
+            continue
         cols = csv_columns(f)
         if cols is not None:
             missing = [c for c in REQUIRED if c not in cols]

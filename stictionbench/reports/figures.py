@@ -3,6 +3,7 @@ strings in their metadata, so that two runs give byte-identical files."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import matplotlib
@@ -31,7 +32,10 @@ def new_figure(nrows: int = 1, ncols: int = 1, **kw):
 
 def save_png(fig, path: str | Path, dpi: int = 100) -> Path:
     """Save ``fig`` to ``path`` atomically with deterministic metadata, then close it."""
-    with atomic_path(path) as tmp, plt.rc_context(STYLE):
+    with atomic_path(path) as tmp, plt.rc_context(STYLE), warnings.catch_warnings():
+        # a loop named in a script the font lacks (e.g. CJK) is drawn with boxes; the
+        # figure stays useful, and stderr stays one line per real problem
+        warnings.filterwarnings("ignore", message="Glyph .* missing from font")
         fig.savefig(tmp, format="png", dpi=dpi, metadata={"Software": None},
                     bbox_inches="tight")
     plt.close(fig)

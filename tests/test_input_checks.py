@@ -1,0 +1,108 @@
+"""Inputs that once ended in a traceback or a hang: each now gets one clear error (exit 2
+through the CLI) or is skipped with its reason."""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+from pi_loop import velocity_pi_loop
+
+from stictionbench.cli import main
+from stictionbench.diagnosis import diagnose
+from stictionbench.diagnosis.model import load_model
+from stictionbench.diagnosis.slip_bootstrap import MAX_B, check_request
+from stictionbench.errors import InputError
+from stictionbench.io import read_recording, write_recording
+from stictionbench.realdata.consensus import Consensus
+from stictionbench.realdata.datasets import load_csv_dir
+
+
+def _loop(n: int = 600):
+    rng = np.random.default_rng(1)
+    sp = np.full(n, 50.0)
+    sp[200:] = 55.0
+    return velocity_pi_loop(sp, 2.0, 10.0, 2.0, 0.4, 10.0, np.zeros(n),
+                            0.1 * rng.standard_normal(n), op0=25.0)
+
+
+MODEL = "process: {gain: 2.0, time_constant: 10.0, dead_time: 2.0}\n" \
+        "controller: {kc: 0.4, ti: 10.0}\nsample_time: 1.0\n"
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes (POSIX)")
+def test_a_named_pipe_in_a_folder_is_skipped_not_read(tmp_path):
+    write_recording(_loop(), tmp_path / "good.csv")
+    os.mkfifo(tmp_path / "pipe.csv")  # reading it would block forever
+    recs, skipped = load_csv_dir(tmp_path, labels=False, warn=False)
+    assert list(recs) == ["good"]
+    assert skipped == [("pipe.csv", "not a regular file")]
+
+
+def test_a_pv_too_small_for_the_arithmetic_is_refused(tmp_path):
+    rec = _loop()
+    tiny = type(rec).from_arrays(rec.t, rec.PV * 1e-200, rec.OP, SP=rec.SP * 1e-200)
+    with pytest.raises(InputError, match="too little for the diagnosis's arithmetic"):
+        diagnose(tiny)
+
+
+def test_an_integer_beyond_a_float_in_the_model_is_one_error(tmp_path):
+    p = tmp_path / "m.yaml"
+    p.write_text(MODEL.replace("gain: 2.0", "gain: " + "9" * 400))
+    with pytest.raises(InputError, match="process.gain: must be finite"):
+        load_model(p)
+
+
+def test_bootstrap_requests_are_checked_before_any_fitting():
+    rec = _loop()
+    model = type("M", (), {"kc": 0.4, "ti": 10.0})()
+    with pytest.raises(InputError, match="--bootstrap-seed"):
+        check_request(rec, model, 19, seed=-1)
+    with pytest.raises(InputError, match=f"at most {MAX_B}"):
+        check_request(rec, model, MAX_B + 1)
+    check_request(rec, model, 19, seed=0)
+
+
+def test_cli_bad_bootstrap_seed_is_one_line_exit_2(tmp_path, capsys):
+    write_recording(_loop(), tmp_path / "r.csv")
+    (tmp_path / "m.yaml").write_text(MODEL)
+    rc = main(["diagnose", str(tmp_path / "r.csv"), "--model", str(tmp_path / "m.yaml"),
+               "--slip-jump-bootstrap", "19", "--bootstrap-seed", "-5",
+               "--json", str(tmp_path / "o.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--bootstrap-seed" in err[0]
+    assert not (tmp_path / "o.json").exists()
+
+
+@pytest.mark.parametrize("text, what", [
+    ("methods: [horch, nope]\nthreshold: 0.5\nmin_votes: 1\n", "unknown: nope"),
+    ("methods: []\nthreshold: 0.5\nmin_votes: 1\n", "none given"),
+    ("methods: [horch]\nthreshold: 2\nmin_votes: 1\n", "in \\(0, 1\\]"),
+    ("methods: [horch]\nthreshold: .nan\nmin_votes: 1\n", "in \\(0, 1\\]"),
+    ("methods: [horch]\nthreshold: 0.5\nmin_votes: 0\n", "at least 1"),
+    ("threshold: 0.5\nmin_votes: 1\n", "no 'methods' key"),
+])
+def test_a_consensus_file_is_checked(tmp_path, text, what):
+    p = tmp_path / "c.yaml"
+    p.write_text(text)
+    with pytest.raises(InputError, match=what):
+        Consensus.load(p)
+
+
+def test_the_shipped_consensus_loads():
+    assert Consensus.load().methods
+
+
+@pytest.mark.skipif("pyarrow" not in sys.modules and
+                    __import__("importlib").util.find_spec("pyarrow") is None,
+                    reason="needs pyarrow for Parquet")
+def test_parquet_durations_are_seconds(tmp_path):
+    rec = _loop()
+    frame = pd.DataFrame({"t": pd.to_timedelta(rec.t, unit="s"), "PV": rec.PV,
+                          "OP": rec.OP, "SP": rec.SP})
+    frame.to_parquet(tmp_path / "r.parquet", index=False)
+    back = read_recording(tmp_path / "r.parquet", warn=False)
+    assert np.allclose(back.t, rec.t)
