@@ -96,13 +96,16 @@ concealed: venv
 # each by a separate author; READMEs there), 192 recordings per set, diagnosed as the
 # command does; sets D and E are fresh seeds of the same two generators, first drawn to
 # score the set-point gain test (stictionbench/diagnosis/gain.py) after it was fixed;
-# then the gain test across families, the controller's rate varied on fresh healthy
+# sets F and G are fresh seeds again, drawn to score the line test (diagnosis/line.py)
+# after it was fixed; then the line test measured on all of them and a fresh holdout
+# block (line_confinement), the gain test across families, the controller's rate varied on fresh healthy
 # loops of the first generator, and the hidden physics of every set put through the
-# diagnosis's own test (oracle_ceiling; about 25 minutes on 2 cores)
+# diagnosis's own test (oracle_ceiling; about 35 minutes on 2 cores)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
-			d:blind_generator:9000 e:blind_generator_c:11000; do \
+			d:blind_generator:9000 e:blind_generator_c:11000 f:blind_generator:13000 \
+			g:blind_generator_c:15000; do \
 		set=$${s%%:*}; rest=$${s#*:}; gen=$${rest%%:*}; seed=$${rest##*:}; \
 		rm -rf $(BLIND)/set_$$set; \
 		$(BIN)/python experiments/$$gen/generate.py --out $(BLIND)/set_$$set \
@@ -110,6 +113,7 @@ independent: venv
 		$(BIN)/python experiments/independent_set.py --data $(BLIND)/set_$$set \
 			--name independent_set_$$set --jobs 2 || exit $$?; \
 	done
+	$(BIN)/python experiments/line_confinement.py --jobs 2
 	$(BIN)/python experiments/setpoint_gain.py --jobs 2
 	$(BIN)/python experiments/snapshot_op.py --loops 48 --jobs 2
 	$(BIN)/python experiments/oracle_ceiling.py --jobs 2

@@ -72,6 +72,7 @@ from stictionbench.diagnosis.evidence import (  # noqa: E402
     scaled_gate,
     select,
 )
+from stictionbench.diagnosis.line import named_line  # noqa: E402
 from stictionbench.io import atomic_directory, read_recording, write_text  # noqa: E402
 from stictionbench.rates import balanced_text, rate_text, wilson  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
@@ -153,7 +154,8 @@ def decision_row(d) -> dict:
             "band_dof": d.details["band_dof"] if d.model.source == "given" else None,
             "op_held": bool(d.tests.get("op_held_at_limit", {}).get("held", False)),
             "gain_flagged": bool(d.tests.get("setpoint_gain", {}).get("significant",
-                                                                      False))}
+                                                                      False)),
+            "line_shares": json.dumps(d.tests.get("line_confined", {}).get("shares", {}))}
 
 
 def stored_evidence(d) -> str:
@@ -257,7 +259,8 @@ def decide(row: pd.Series, alpha: float, min_improvement: float,
     """The shipped decision re-applied to one stored row at other thresholds: the main
     band's rule (:func:`~stictionbench.diagnosis.evidence.select`), then the second
     look and the full-data test of the range hypotheses (:func:`after_main_band`), then
-    the checks after the comparison (:func:`after_comparison`). The
+    the line test (:func:`after_line`), then the checks after the comparison
+    (:func:`after_comparison`). The
     main band's NRMSE gate is scaled by the stored in-band degrees of freedom
     (:func:`~stictionbench.diagnosis.evidence.scaled_gate`; rows stored before they
     were, and model-free rows, keep ``min_improvement``; ``gate`` varies that law)."""
@@ -265,8 +268,18 @@ def decide(row: pd.Series, alpha: float, min_improvement: float,
                   min_improvement=main_band_gate(row, min_improvement, gate),
                   own_resolution=own_resolution_of(row),
                   cycle_reproduced=bool(row.get("cycle_reproduced", False)))
-    return after_comparison(row, after_main_band(row, pick, alpha, min_improvement,
-                                                 alpha_full))
+    pick = after_main_band(row, pick, alpha, min_improvement, alpha_full)
+    return after_comparison(row, after_line(row, pick))
+
+
+def after_line(row: pd.Series, pick: str) -> str:
+    """``pick``, or the oscillatory disturbance where ``pick`` is OP-driven and its
+    improvement lies at the residual's line (:func:`stictionbench.diagnosis.line.named_line`
+    on the stored ``line_shares``; rows stored before the line test keep ``pick``)."""
+    shares = row.get("line_shares")
+    if not isinstance(shares, str):
+        return pick
+    return "oscillatory_disturbance" if named_line(pick, json.loads(shares)) else pick
 
 
 def picks(df: pd.DataFrame, alpha: float, min_improvement: float) -> pd.Series:

@@ -63,7 +63,8 @@ RATIOS = ("dead_time_ratio", "dead_time_true_over_model", "valve_gain_ratio")
 
 def diagnose_one(data: str, name: str) -> dict:
     """Diagnose ``DATA/NAME.csv`` with ``DATA/NAME.model.yaml`` as the command does; the
-    verdict, the warnings and the stored evidence :func:`concealed.miss_reason` reads."""
+    verdict, the warnings and the stored evidence :func:`concealed.miss_reason` reads and
+    :func:`concealed.decide` re-decides from."""
     t0 = time.perf_counter()
     d = Path(data)
     rec = read_recording(str(d / f"{name}.csv"), warn=False)
@@ -74,9 +75,9 @@ def diagnose_one(data: str, name: str) -> dict:
            "gain_named": bool(res.tests.get("setpoint_gain", {}).get("named", False)),
            "warnings": ";".join(k for k in WARNING_KEYS if res.details.get(k)),
            "seconds": time.perf_counter() - t0}
-    return row | {k: v for k, v in decision_row(res).items()
-                  if k in ("evidence", "slip_jump_p", "cycle_reproduced",
-                           "dead_time_own_resolution")}
+    # every field concealed.decide re-decides from (the second look's line, the OP held
+    # at a limit, the set-point gain test, the line test), so that it reproduces the verdict
+    return row | decision_row(res)
 
 
 def score(truth: pd.DataFrame, found: pd.DataFrame) -> pd.DataFrame:

@@ -26,7 +26,9 @@
    residual whiteness and independence from OP; and whether the identified valve,
    closed with the loop's PI, reproduces the recorded oscillation by itself
    (:mod:`.cycle`), which names a significant valve over hypotheses that need an
-   external source.
+   external source; and where an OP-driven pick's improvement lies in frequency
+   (:mod:`.line`): one that gains at the residual's line and loses everywhere else has
+   followed OP's echo of an external oscillation, which is named instead.
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
 from .gain import GainTest, setpoint_gain
 from .hammerstein import HP_FACTOR, HammersteinResult, fit_hammerstein
 from .hypotheses import HYPOTHESES, Context, Nominal, lowpass_corner
+from .line import line_confinement
 from .locate import (
     dominant_periods,
     mismatch_band,
@@ -713,6 +716,13 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d = _assemble(cmp, loc, fits, verdict, ham)
     if look is not None:
         d.details["slow_line"] = look.to_dict()
+    if look is None or not look.named:
+        # where the pick's improvement lies in frequency (.line): an OP-driven fit that
+        # gains at the residual's line alone has explained an external oscillation
+        b = cmp.burn
+        d = name_line(d, line_confinement(
+            fits["none"].resid[b:], {h: ft.resid[b:] for h, ft in fits.items()},
+            cmp.ctx.Ts, d.missing_physics))
     held, gain = held_at_limit(cmp.rec.OP, cmp.ctx.op_range), setpoint_gain(cmp)
     named = after_comparison(d.missing_physics, bool(held["held"]), gain.significant)
     changed = named != d.missing_physics
@@ -746,6 +756,40 @@ def after_comparison(pick: str, op_held: bool, gain_flagged: bool) -> str:
     if op_held:
         return "saturation"
     return "valve_characteristic" if gain_flagged else pick
+
+
+def name_line(d: Diagnosis, test: dict[str, Any]) -> Diagnosis:
+    """Name ``oscillatory_disturbance`` in place of an OP-driven pick whose improvement
+    lies at the residual's line (:func:`.line.line_confinement`), in place; the test is
+    reported under ``tests["line_confined"]`` either way.
+
+    The answer's parameters and fit are the oscillatory disturbance's own where it was
+    fitted at the line (its period within the line's band), else the line's period alone
+    with no improvement claimed: a sinusoid of fixed phase need not fit a line whose
+    period wanders, which is how the OP-driven fit came to explain it."""
+    d.tests["line_confined"] = test
+    if not test["named"]:
+        return d
+    name, was = "oscillatory_disturbance", d.missing_physics
+    period = float(test["line_period_s"])
+    ft = d.fits.get(name)
+    own = ft is not None and abs(ft.params.get("period", 0.0) / period - 1.0) <= test["band"]
+    if own:
+        d.parameters, d.uncertainty = dict(ft.params), dict(ft.intervals)
+        d.fit = {**d.fit, "improved": ft.nrmse_val}
+    else:
+        d.parameters, d.uncertainty = {"period": period}, {}
+        d.fit = {**d.fit, "improved": d.fit["nominal"]}
+    d.missing_physics, d.mismatch_detected = name, True
+    d.details["line_confined"] = (
+        f"the mismatch lies at one line (period {period:.4g} s): {test['share']:.0%} of "
+        f"what the {was.replace('_', ' ')} fit gains is within ±{test['band']:.0%} of "
+        "that line's frequency. Physics acting on OP changes the prediction wherever OP "
+        "has power; a gain at one line alone is the closed loop's echo of an external "
+        "oscillation in OP, which a shifted or reshaped replay of OP follows"
+        + ("" if own else "; a sinusoid of fixed phase was not fitted there (a wandering "
+           "period), so no improvement is claimed"))
+    return d
 
 
 def name_held_limit(d: Diagnosis, held: dict[str, Any], name: bool) -> Diagnosis:
