@@ -118,3 +118,18 @@ def test_stored_rows_are_re_decided_with_the_line_test():
     row["line_shares"] = json.dumps({"dead_time": 0.3})
     assert concealed.decide(row, 0.05, 0.1) == "dead_time"
     assert concealed.decide(row.drop("line_shares"), 0.05, 0.1) == "dead_time"
+
+
+def test_a_line_named_without_a_sinusoid_fitted_keeps_the_nominal_fit(tmp_path):
+    from stictionbench.diagnosis.report import write_report
+
+    rec, model, period = _loop_with_wandering_line(3)
+    d = diagnose(rec, model, hypotheses=("sensor_lag", "dead_time"))
+    assert d.tests["line_confined"]["named"]
+    assert d.missing_physics == "oscillatory_disturbance"
+    # no improvement claimed: the line's period read off the residual, the nominal's fit
+    assert d.fit["improved"] == d.fit["nominal"] and d.uncertainty == {}
+    assert abs(d.parameters["period"] / period - 1.0) < 0.15
+    paths = write_report(d, tmp_path)
+    assert "echo of an external oscillation" in (tmp_path / "summary.md").read_text()
+    assert all(p.exists() for p in paths)

@@ -778,8 +778,12 @@ def name_line(d: Diagnosis, test: dict[str, Any]) -> Diagnosis:
         d.parameters, d.uncertainty = dict(ft.params), dict(ft.intervals)
         d.fit = {**d.fit, "improved": ft.nrmse_val}
     else:
+        # its fit is the nominal one, the line's period read off the residual
+        base = d.fits["none"]
+        d.fits[name] = replace(base, name=name, params={"period": period}, intervals={},
+                               p=np.array([period]))
         d.parameters, d.uncertainty = {"period": period}, {}
-        d.fit = {**d.fit, "improved": d.fit["nominal"]}
+        d.fit = {**d.fit, "improved": base.nrmse_val}
     d.missing_physics, d.mismatch_detected = name, True
     d.details["line_confined"] = (
         f"the mismatch lies at one line (period {period:.4g} s): {test['share']:.0%} of "

@@ -142,6 +142,11 @@ def _range_lines(d: Diagnosis) -> list[str]:
             f"blocks do not contradict it."]
 
 
+def _line_lines(d: Diagnosis) -> list[str]:
+    """The line test (:mod:`.line`), when it named the line."""
+    return [f"- {d.details['line_confined']}."] if d.details.get("line_confined") else []
+
+
 def _held_lines(d: Diagnosis) -> list[str]:
     """The OP-held-at-a-limit check (:func:`.op_limit.held_at_limit`), when OP was held."""
     t = d.tests.get("op_held_at_limit") or {}
@@ -233,6 +238,7 @@ def summary_markdown(d: Diagnosis) -> str:
         *_gate_lines(d),
         *_slow_line_lines(d),
         *_range_lines(d),
+        *_line_lines(d),
         *_held_lines(d),
         *_residual_lines(d),
         "",
