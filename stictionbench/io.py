@@ -310,7 +310,9 @@ def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bo
                 s.str.lower().isin(HISTORIAN_STATES)
             num = pd.to_numeric(s.where(~empty, None), errors="coerce")
             bad = num.isna() & ~empty
-            if name == "t" and bad.any():
+            # date-times, unless most cells are numbers (then the rest are bad cells: a
+            # second header part-way, a note at the end)
+            if name == "t" and bad.any() and num.notna().sum() < bad.sum():
                 stamps = _timestamps(s.where(~empty, None))
                 if np.isfinite(stamps).any():  # date-times: name the first that is not one
                     bad = pd.Series(np.isnan(stamps) & ~empty.to_numpy())

@@ -209,6 +209,21 @@ def test_a_bad_timestamp_names_its_row(tmp_path):
         read_recording(p)
 
 
+@pytest.mark.parametrize("bad, row", [("t,SP,PV,OP", 52), ("end of export", 202)])
+def test_a_text_line_among_numeric_times_names_its_own_row(tmp_path, bad, row):
+    """A second header part-way or a note at the end: the bad line is named, not the
+    first sample (which is no date-time, the column being numbers)."""
+    rows = ["t,SP,PV,OP"] + [f"{i},1,{i % 7},{i % 5}" for i in range(200)]
+    if row == 202:
+        rows.append(bad)
+    else:
+        rows[row - 1] = bad
+    p = tmp_path / "bad.csv"
+    p.write_text("\n".join(rows) + "\n")
+    with pytest.raises(InputError, match=rf"row {row}, column t: not a number"):
+        read_recording(p)
+
+
 @pytest.mark.parametrize("sep", [";", "\t", "|"])
 def test_semicolon_tab_and_decimal_comma_csv_read_as_the_comma_one(tmp_path, sep):
     """A spreadsheet export from a European locale (``;`` or tab, decimal comma) and a
