@@ -106,3 +106,13 @@ def test_parquet_durations_are_seconds(tmp_path):
     frame.to_parquet(tmp_path / "r.parquet", index=False)
     back = read_recording(tmp_path / "r.parquet", warn=False)
     assert np.allclose(back.t, rec.t)
+
+
+def test_a_folder_with_no_usable_recording_says_why(tmp_path):
+    from stictionbench.realdata.batch import run_batch
+
+    write_recording(_loop(), tmp_path / "short.csv")
+    (tmp_path / "short.csv").write_text(
+        "\n".join((tmp_path / "short.csv").read_text().splitlines()[:40]) + "\n")
+    with pytest.raises(InputError, match="no usable recordings.*short.csv"):
+        run_batch(str(tmp_path), None)

@@ -38,7 +38,11 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
         raise InputError(f"{d}: not a directory")
     recs, skipped = load_csv_dir(d, labels=labels if labels else None, warn=False)
     if not recs:
-        raise InputError(f"{d}: no recordings (CSV files with t, PV, OP)")
+        name, reason = skipped[0] if skipped else ("", "")
+        why = "" if not skipped else f"; {reason}" if name in reason else \
+            f"; {name}: {reason}"
+        more = f" (and {len(skipped) - 1} more file(s) skipped)" if len(skipped) > 1 else ""
+        raise InputError(f"{d}: no usable recordings (CSV files with t, PV, OP){why}{more}")
     rule = Consensus.load(consensus)
     names = list(recs)
     results = Parallel(n_jobs=jobs, return_as="generator_unordered")(
