@@ -72,7 +72,7 @@ from stictionbench.diagnosis.evidence import (  # noqa: E402
     scaled_gate,
     select,
 )
-from stictionbench.diagnosis.line import named_line  # noqa: E402
+from stictionbench.diagnosis.line import LINE_SHARE, named_line  # noqa: E402
 from stictionbench.io import atomic_directory, read_recording, write_text  # noqa: E402
 from stictionbench.rates import balanced_text, rate_text, wilson  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
@@ -255,12 +255,13 @@ def _flag(row: pd.Series, key: str) -> bool:
 
 def decide(row: pd.Series, alpha: float, min_improvement: float,
            alpha_full: float = FULL_DATA_ALPHA,
-           gate: Callable[[float, float], float] = scaled_gate) -> str:
+           gate: Callable[[float, float], float] = scaled_gate,
+           line_share: float = LINE_SHARE) -> str:
     """The shipped decision re-applied to one stored row at other thresholds: the main
     band's rule (:func:`~stictionbench.diagnosis.evidence.select`), then the second
     look and the full-data test of the range hypotheses (:func:`after_main_band`), then
     the line test (:func:`after_line`), then the checks after the comparison
-    (:func:`after_comparison`). The
+    (:func:`after_comparison`; ``line_share`` varies the line test's bound). The
     main band's NRMSE gate is scaled by the stored in-band degrees of freedom
     (:func:`~stictionbench.diagnosis.evidence.scaled_gate`; rows stored before they
     were, and model-free rows, keep ``min_improvement``; ``gate`` varies that law)."""
@@ -269,17 +270,20 @@ def decide(row: pd.Series, alpha: float, min_improvement: float,
                   own_resolution=own_resolution_of(row),
                   cycle_reproduced=bool(row.get("cycle_reproduced", False)))
     pick = after_main_band(row, pick, alpha, min_improvement, alpha_full)
-    return after_comparison(row, after_line(row, pick))
+    return after_comparison(row, after_line(row, pick, line_share))
 
 
-def after_line(row: pd.Series, pick: str) -> str:
+def after_line(row: pd.Series, pick: str, threshold: float = LINE_SHARE) -> str:
     """``pick``, or the oscillatory disturbance where ``pick`` is OP-driven and its
     improvement lies at the residual's line (:func:`stictionbench.diagnosis.line.named_line`
     on the stored ``line_shares``; rows stored before the line test keep ``pick``)."""
     shares = row.get("line_shares")
     if not isinstance(shares, str):
         return pick
-    return "oscillatory_disturbance" if named_line(pick, json.loads(shares)) else pick
+    cyc = bool(row.get("cycle_reproduced", False))
+    return ("oscillatory_disturbance"
+            if named_line(pick, json.loads(shares), threshold, cycle_reproduced=cyc)
+            else pick)
 
 
 def picks(df: pd.DataFrame, alpha: float, min_improvement: float) -> pd.Series:

@@ -20,7 +20,14 @@ Where each number comes from, and which are in-sample:
   tried, lost 18 correct verdicts, whose loops' OP itself is dominated by one line (the
   holdout family's loops), and the bound 1 lost one;
 * **sets F and G are out of sample**: fresh seeds of the two independent generators
-  (13000 and 15000), drawn and diagnosed after the rule and its bound were fixed.
+  (13000 and 15000), drawn and diagnosed after the rule and its bound were fixed;
+* one amendment came after F and G were scored, from real data: on the ISDB loop CHEM10
+  (stiction, model-free) the rule renamed a sticky valve whose identified valve, closed
+  with the loop's PI, reproduces the recorded cycle (``tests.closed_loop_cycle``). An
+  explanation from inside the loop checked by a prediction nothing was fitted to is not
+  overruled by where a fit gains, so such a valve is kept. On F and G this costs one
+  level-1 oscillatory disturbance whose dead-band fit also "reproduced" the cycle
+  (named right, F and G: 205 → 211 before the amendment, 205 → 210 after).
 
 Every verdict here is re-decided from the stored evidence (``concealed.decide``) with
 and without the line test, so the comparison is of the rule alone, on the same fits;
@@ -64,17 +71,22 @@ OSC = "oscillatory_disturbance"
 
 
 def redecide(df: pd.DataFrame) -> pd.DataFrame:
-    """Each stored row decided without the line test (``before``) and with it
-    (``after``), with the share of the line of the verdict before (``share``; NaN where
-    that verdict is not OP-driven or the share is undefined)."""
-    before, after, share = [], [], []
+    """Each stored row decided without the line test (``before``), with it (``after``)
+    and with it at every bound of :data:`THRESHOLDS` (``at <bound>``), with the share of
+    the line of the verdict before (``share``; NaN where that verdict is not OP-driven or
+    the share is undefined; a verdict named after the comparison, from OP held at a
+    limit or the set-point gain test, is never tested)."""
+    out: dict[str, list] = {"before": [], "after": [], "share": []}
+    out |= {f"at {th:g}": [] for th in THRESHOLDS}
     for _, r in df.iterrows():
         b = decide(r.drop("line_shares"), ALPHA, MIN_IMPROVEMENT)
-        before.append(b)
-        after.append(decide(r, ALPHA, MIN_IMPROVEMENT))
+        out["before"].append(b)
+        out["after"].append(decide(r, ALPHA, MIN_IMPROVEMENT))
+        for th in THRESHOLDS:
+            out[f"at {th:g}"].append(decide(r, ALPHA, MIN_IMPROVEMENT, line_share=th))
         s = json.loads(r["line_shares"]).get(b) if b in OP_DRIVEN else None
-        share.append(np.nan if s is None else float(s))
-    return df.assign(before=before, after=after, share=share)
+        out["share"].append(np.nan if s is None else float(s))
+    return df.assign(**out)
 
 
 def load(jobs: int) -> pd.DataFrame:
@@ -92,7 +104,7 @@ def load(jobs: int) -> pd.DataFrame:
         parts.append(redecide(df).assign(data=f"set {s.upper()}", generator=gen,
                                          sample=sample))
     cols = ["data", "generator", "sample", "name", "class", "level", "predicted", "before",
-            "after", "share"]
+            "after", "share"] + [f"at {th:g}" for th in THRESHOLDS]
     return pd.concat([p[cols] for p in parts], ignore_index=True)
 
 
@@ -123,8 +135,8 @@ def score_rows(df: pd.DataFrame) -> list[dict]:
 
 
 def sweep_rows(df: pd.DataFrame) -> list[dict]:
-    """Named right at other thresholds, from the same shares (the shipped bound among
-    them)."""
+    """Named right at other bounds, re-decided from the same stored evidence (the
+    shipped bound among them)."""
     rows = []
     for label, m in (("holdout block", df["generator"] == "holdout"),
                      ("sets A–E", df["sample"] == "in-sample"),
@@ -133,8 +145,7 @@ def sweep_rows(df: pd.DataFrame) -> list[dict]:
         row = {"data": label, "recordings": len(g),
                "no line test": int((g["before"] == g["class"]).sum())}
         for th in THRESHOLDS:
-            p = np.where(g["share"].fillna(-np.inf) > th, OSC, g["before"])
-            row[f"> {th:g}"] = int((p == g["class"]).sum())
+            row[f"> {th:g}"] = int((g[f"at {th:g}"] == g["class"]).sum())
         rows.append(row)
     return rows
 
@@ -178,8 +189,11 @@ def report(df: pd.DataFrame, wall: float) -> str:
              "`stictionbench/diagnosis/line.py`). **Sets A–E are in-sample for the idea** "
              "(their misses suggested it); the holdout block checked the bound; **sets F "
              "and G are out of sample** (fresh seeds of both independent generators, drawn "
-             "after the rule was fixed). Wilson 95 % intervals; the score of 16 weighs "
-             "classes equally.", "",
+             "after the rule was fixed), except for one amendment made after they were "
+             "scored: a sticky valve whose reproduced closed-loop cycle explains the "
+             "oscillation from inside the loop is kept (prompted by the ISDB loop CHEM10; "
+             "on F and G it costs one recording, 211 → 210 named right). Wilson 95 % "
+             "intervals; the score of 16 weighs classes equally.", "",
              "![shares](line_confinement.png)", "",
              to_markdown(pd.DataFrame(score_rows(df))), "",
              "## Named right at other bounds (same shares)", "",

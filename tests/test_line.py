@@ -133,3 +133,14 @@ def test_a_line_named_without_a_sinusoid_fitted_keeps_the_nominal_fit(tmp_path):
     paths = write_report(d, tmp_path)
     assert "echo of an external oscillation" in (tmp_path / "summary.md").read_text()
     assert all(p.exists() for p in paths)
+
+
+def test_a_sticky_valve_whose_cycle_was_reproduced_is_kept():
+    shares = {"stiction": 1.7, "dead_time": 1.7}
+    assert named_line("stiction", shares)
+    assert not named_line("stiction", shares, cycle_reproduced=True)
+    # the cycle check concerns the valve: a dead time gets no such exemption
+    assert named_line("dead_time", shares, cycle_reproduced=True)
+    t = line_confinement(NOISE + LINE, {"stiction": NOISE - 0.3 * RNG.standard_normal(
+        T.size)}, 1.0, "stiction", cycle_reproduced=True)
+    assert t["share"] > LINE_SHARE and t["cycle_reproduced"] and not t["named"]

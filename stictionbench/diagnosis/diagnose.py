@@ -722,7 +722,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         b = cmp.burn
         d = name_line(d, line_confinement(
             fits["none"].resid[b:], {h: ft.resid[b:] for h, ft in fits.items()},
-            cmp.ctx.Ts, d.missing_physics))
+            cmp.ctx.Ts, d.missing_physics,
+            cycle_reproduced=bool(d.tests.get("closed_loop_cycle", {}).get("reproduced"))))
     held, gain = held_at_limit(cmp.rec.OP, cmp.ctx.op_range), setpoint_gain(cmp)
     named = after_comparison(d.missing_physics, bool(held["held"]), gain.significant)
     changed = named != d.missing_physics

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 from scipy.signal import periodogram
 
+from .evidence import VALVE_HYPOTHESES
 from .strict_json import finite_or_none
 
 #: the hypotheses whose prediction is the replay of the recorded OP through the physics
@@ -101,12 +102,16 @@ def line_share(e0: np.ndarray, e1: np.ndarray, Ts: float, f_line: float,
 
 
 def line_confinement(e0: np.ndarray, errors: dict[str, np.ndarray], Ts: float, pick: str,
-                     threshold: float = LINE_SHARE) -> dict[str, Any]:
+                     threshold: float = LINE_SHARE, *,
+                     cycle_reproduced: bool = False) -> dict[str, Any]:
     """The line test: ``e0`` the nominal's band-passed output error after the burn-in,
     ``errors`` the same of each fitted hypothesis. For every OP-driven hypothesis
     (:data:`OP_DRIVEN`) the share of its improvement at the nominal residual's dominant
     line (:func:`residual_line`, :func:`line_share`); ``named`` when ``pick`` is one of
-    them and its share is above ``threshold``."""
+    them and its share is above ``threshold`` — unless ``pick`` is a sticky valve whose
+    identified valve, closed with the loop's PI, reproduced the oscillation by itself
+    (``cycle_reproduced``, :mod:`.cycle`): an explanation from inside the loop, checked by
+    a prediction nothing was fitted to, is not overruled by where a fit gains."""
     f = residual_line(e0, Ts)
     # a share is None where it is undefined (the hypothesis gains nothing overall)
     shares = {h: finite_or_none(line_share(e0, e, Ts, f)) for h, e in errors.items()
@@ -114,13 +119,17 @@ def line_confinement(e0: np.ndarray, errors: dict[str, np.ndarray], Ts: float, p
     return {"hypothesis": pick if pick in OP_DRIVEN else None,
             "line_period_s": 1.0 / f if f > 0 else None, "band": LINE_BAND,
             "share": shares.get(pick), "threshold": threshold, "shares": shares,
-            "named": named_line(pick, shares, threshold)}
+            "cycle_reproduced": bool(cycle_reproduced),
+            "named": named_line(pick, shares, threshold,
+                                cycle_reproduced=cycle_reproduced)}
 
 
 def named_line(pick: str, shares: dict[str, float | None],
-               threshold: float = LINE_SHARE) -> bool:
+               threshold: float = LINE_SHARE, *, cycle_reproduced: bool = False) -> bool:
     """Whether the line is named in place of ``pick``: an OP-driven pick whose share of
     its improvement at the line (``shares[pick]``, ``None`` where undefined) is above
-    ``threshold``."""
+    ``threshold``, and not a sticky valve whose cycle was reproduced."""
+    if cycle_reproduced and pick in VALVE_HYPOTHESES:
+        return False
     share = shares.get(pick) if pick in OP_DRIVEN else None
     return share is not None and share > threshold
