@@ -177,6 +177,11 @@ def main(argv=None) -> int:
     def called(g: pd.DataFrame, col: str = "pick_unscaled") -> str:
         return rate_text(int((g[col] != "none").sum()), len(g))
 
+    def gated(g: pd.DataFrame, col: str = "pick_unscaled") -> str:
+        # what the gate governs: `saturation` here is OP held at its limit, named from
+        # OP after the comparison named nothing (diagnosis.op_limit), not through the gate
+        return rate_text(int((~g[col].isin(["none", "saturation"])).sum()), len(g))
+
     slow = df[df.tau >= 30]
     by_cond = "; ".join(f"{cond}: {called(g)}" for cond, g in slow.groupby("condition",
                                                                            sort=False))
@@ -196,7 +201,9 @@ def main(argv=None) -> int:
         f"- all conditions, by the validation blocks' in-band degrees of freedom "
         f"(`band_dof`: `2 · n_val · Ts · (f_lp − f_hp)`, the independent samples a band "
         f"of that width holds; the 10 % NRMSE gate is an effect size measured on it): "
-        f"under {BAND_DOF} {called(df[few])}, {BAND_DOF} or more {called(df[~few])};",
+        f"under {BAND_DOF} {called(df[few])}, {BAND_DOF} or more {called(df[~few])}; "
+        f"leaving out `saturation` (OP held at its limit, named from OP, not through the "
+        f"gate): under {BAND_DOF} {gated(df[few])}, {BAND_DOF} or more {gated(df[~few])};",
         f"- these rates are the gate's as set (`gate unscaled`); the shipped rule scales "
         f"it by the band's degrees of freedom below {BAND_DOF:g} "
         f"(`evidence.scaled_gate`, whose reference was read off this report): called "
