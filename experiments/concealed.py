@@ -280,9 +280,7 @@ def after_line(row: pd.Series, pick: str, threshold: float = LINE_SHARE) -> str:
     shares = row.get("line_shares")
     if not isinstance(shares, str):
         return pick
-    cyc = bool(row.get("cycle_reproduced", False))
-    return ("oscillatory_disturbance"
-            if named_line(pick, json.loads(shares), threshold, cycle_reproduced=cyc)
+    return ("oscillatory_disturbance" if named_line(pick, json.loads(shares), threshold)
             else pick)
 
 

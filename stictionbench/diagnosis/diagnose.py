@@ -26,9 +26,9 @@
    residual whiteness and independence from OP; and whether the identified valve,
    closed with the loop's PI, reproduces the recorded oscillation by itself
    (:mod:`.cycle`), which names a significant valve over hypotheses that need an
-   external source; and where an OP-driven pick's improvement lies in frequency
-   (:mod:`.line`): one that gains at the residual's line and loses everywhere else has
-   followed OP's echo of an external oscillation, which is named instead.
+   external source; and where a dead time's or sensor lag's improvement lies in
+   frequency (:mod:`.line`): one that gains at the residual's line and loses everywhere
+   else has followed OP's echo of an external oscillation, which is named instead.
 """
 
 from __future__ import annotations
@@ -722,8 +722,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         b = cmp.burn
         d = name_line(d, line_confinement(
             fits["none"].resid[b:], {h: ft.resid[b:] for h, ft in fits.items()},
-            cmp.ctx.Ts, d.missing_physics,
-            cycle_reproduced=bool(d.tests.get("closed_loop_cycle", {}).get("reproduced"))))
+            cmp.ctx.Ts, d.missing_physics))
     held, gain = held_at_limit(cmp.rec.OP, cmp.ctx.op_range), setpoint_gain(cmp)
     named = after_comparison(d.missing_physics, bool(held["held"]), gain.significant)
     changed = named != d.missing_physics
@@ -760,9 +759,9 @@ def after_comparison(pick: str, op_held: bool, gain_flagged: bool) -> str:
 
 
 def name_line(d: Diagnosis, test: dict[str, Any]) -> Diagnosis:
-    """Name ``oscillatory_disturbance`` in place of an OP-driven pick whose improvement
-    lies at the residual's line (:func:`.line.line_confinement`), in place; the test is
-    reported under ``tests["line_confined"]`` either way.
+    """Name ``oscillatory_disturbance`` in place of a dead time or sensor lag whose
+    improvement lies at the residual's line (:func:`.line.line_confinement`), in place;
+    the test is reported under ``tests["line_confined"]`` either way.
 
     The answer's parameters and fit are the oscillatory disturbance's own where it was
     fitted at the line (its period within the line's band), else the line's period alone

@@ -12,9 +12,10 @@ defeats. Such a fit improves the residual at the oscillation's line alone.
 
 :func:`line_confinement` measures where a hypothesis's improvement lies: the
 reduction of the residual's periodogram inside ``±LINE_BAND`` of the nominal residual's
-dominant line, over the whole reduction (the record after the burn-in). A share above
-:data:`LINE_SHARE` (the fit gains at the line and loses everywhere else) names the line,
-an oscillatory disturbance, in place of the OP-driven physics.
+dominant line, over the whole reduction (the record after the burn-in). Where the pick
+is a dead time or a sensor lag (:data:`LINE_REPLACES`), a share above :data:`LINE_SHARE`
+(the fit gains at the line and loses everywhere else) names the line, an oscillatory
+disturbance, in its place.
 
 References
 ----------
@@ -31,12 +32,22 @@ from typing import Any
 import numpy as np
 from scipy.signal import periodogram
 
-from .evidence import VALVE_HYPOTHESES
 from .strict_json import finite_or_none
 
 #: the hypotheses whose prediction is the replay of the recorded OP through the physics
+#: (their shares are reported)
 OP_DRIVEN = ("dead_time", "sensor_lag", "deadband", "stiction", "valve_characteristic",
              "saturation")
+
+#: the picks the line may replace: the linear lags on PV, whose change to the prediction
+#: spreads over every frequency OP moves at. A valve nonlinearity in a limit cycle changes
+#: the prediction at the cycle's line and harmonics, and a fit that misses elsewhere (a
+#: re-identified process, a valve replayed on a sampled OP) says nothing about the
+#: cycle's source; whether a valve explains a cycle from inside the loop is the
+#: closed-loop cycle check's question (:mod:`.cycle`). Renaming valves, characteristics
+#: and limits too cost sticky valves in regulatory limit cycles (fast_loops, a model
+#: given, loops of 8 samples or slower: 18 → 12 of 36 named sticky)
+LINE_REPLACES = ("dead_time", "sensor_lag")
 
 #: half-width of the line's band, relative to its frequency: an external oscillation's
 #: period wanders by a few per cent over a record
@@ -102,16 +113,12 @@ def line_share(e0: np.ndarray, e1: np.ndarray, Ts: float, f_line: float,
 
 
 def line_confinement(e0: np.ndarray, errors: dict[str, np.ndarray], Ts: float, pick: str,
-                     threshold: float = LINE_SHARE, *,
-                     cycle_reproduced: bool = False) -> dict[str, Any]:
+                     threshold: float = LINE_SHARE) -> dict[str, Any]:
     """The line test: ``e0`` the nominal's band-passed output error after the burn-in,
     ``errors`` the same of each fitted hypothesis. For every OP-driven hypothesis
     (:data:`OP_DRIVEN`) the share of its improvement at the nominal residual's dominant
-    line (:func:`residual_line`, :func:`line_share`); ``named`` when ``pick`` is one of
-    them and its share is above ``threshold`` — unless ``pick`` is a sticky valve whose
-    identified valve, closed with the loop's PI, reproduced the oscillation by itself
-    (``cycle_reproduced``, :mod:`.cycle`): an explanation from inside the loop, checked by
-    a prediction nothing was fitted to, is not overruled by where a fit gains."""
+    line (:func:`residual_line`, :func:`line_share`); ``named`` when ``pick`` is a linear
+    lag on PV (:data:`LINE_REPLACES`) and its share is above ``threshold``."""
     f = residual_line(e0, Ts)
     # a share is None where it is undefined (the hypothesis gains nothing overall)
     shares = {h: finite_or_none(line_share(e0, e, Ts, f)) for h, e in errors.items()
@@ -119,17 +126,13 @@ def line_confinement(e0: np.ndarray, errors: dict[str, np.ndarray], Ts: float, p
     return {"hypothesis": pick if pick in OP_DRIVEN else None,
             "line_period_s": 1.0 / f if f > 0 else None, "band": LINE_BAND,
             "share": shares.get(pick), "threshold": threshold, "shares": shares,
-            "cycle_reproduced": bool(cycle_reproduced),
-            "named": named_line(pick, shares, threshold,
-                                cycle_reproduced=cycle_reproduced)}
+            "named": named_line(pick, shares, threshold)}
 
 
 def named_line(pick: str, shares: dict[str, float | None],
-               threshold: float = LINE_SHARE, *, cycle_reproduced: bool = False) -> bool:
-    """Whether the line is named in place of ``pick``: an OP-driven pick whose share of
-    its improvement at the line (``shares[pick]``, ``None`` where undefined) is above
-    ``threshold``, and not a sticky valve whose cycle was reproduced."""
-    if cycle_reproduced and pick in VALVE_HYPOTHESES:
-        return False
-    share = shares.get(pick) if pick in OP_DRIVEN else None
+               threshold: float = LINE_SHARE) -> bool:
+    """Whether the line is named in place of ``pick``: a linear lag on PV
+    (:data:`LINE_REPLACES`) whose share of its improvement at the line (``shares[pick]``,
+    ``None`` where undefined) is above ``threshold``."""
+    share = shares.get(pick) if pick in LINE_REPLACES else None
     return share is not None and share > threshold
