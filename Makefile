@@ -97,7 +97,8 @@ concealed: venv
 # command does; sets D and E are fresh seeds of the same two generators, first drawn to
 # score the set-point gain test (stictionbench/diagnosis/gain.py) after it was fixed;
 # sets F and G are fresh seeds again, drawn to score the line test (diagnosis/line.py)
-# after it was fixed; then the line test measured on all of them and a fresh holdout
+# after it was fixed; sets H and I are fresh seeds drawn after the line test's amendment
+# (only the two lags replaced), scored once; then the line test measured on all of them and a fresh holdout
 # block (line_confinement), the gain test across families, the controller's rate varied on fresh healthy
 # loops of the first generator, and the hidden physics of every set put through the
 # diagnosis's own test (oracle_ceiling; about 35 minutes on 2 cores)
@@ -105,7 +106,8 @@ BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
 			d:blind_generator:9000 e:blind_generator_c:11000 f:blind_generator:13000 \
-			g:blind_generator_c:15000; do \
+			g:blind_generator_c:15000 h:blind_generator:17000 \
+			i:blind_generator_c:19000; do \
 		set=$${s%%:*}; rest=$${s#*:}; gen=$${rest%%:*}; seed=$${rest##*:}; \
 		rm -rf $(BLIND)/set_$$set; \
 		$(BIN)/python experiments/$$gen/generate.py --out $(BLIND)/set_$$set \
