@@ -1,8 +1,8 @@
 """The detectability ceiling on the independent sets: would the diagnosis's own test name
 an effect if the hidden physics were known exactly?
 
-The independent generators (``experiments/blind_generator``: sets A, B, D;
-``experiments/blind_generator_c``: sets C, E) know what the recordings hide: the valve
+The independent generators (``experiments/blind_generator``: sets A, B, D, F, H;
+``experiments/blind_generator_c``: sets C, E, G, I) know what the recordings hide: the valve
 position MV, the valve's installed characteristic, the true dead time and sensor lag.
 For every recording of a class whose physics can be replayed from the recorded OP, this
 script regenerates the recording (the same seed; its OP is checked against the stored
@@ -84,7 +84,10 @@ OUT = ROOT / "reports" / "concealed"
 BLIND = ROOT / ".cache" / "blindgen"
 #: set → generator directory under ``experiments/`` (as ``make independent`` draws them)
 SETS = {"a": "blind_generator", "b": "blind_generator", "c": "blind_generator_c",
-        "d": "blind_generator", "e": "blind_generator_c"}
+        "d": "blind_generator", "e": "blind_generator_c", "f": "blind_generator",
+        "g": "blind_generator_c", "h": "blind_generator", "i": "blind_generator_c"}
+#: the sets whose level-2 valves the scaling study draws again (as first run)
+SCALED_SETS = ("c", "e")
 CLASSES = ("stiction", "deadband", "valve_characteristic", "saturation", "dead_time",
            "sensor_lag")
 #: the holdout family's block whose stored verdicts (``.cache/holdout_blocks``, run by
@@ -425,7 +428,7 @@ def scaled_row(setname: str, row: dict[str, Any], k: float) -> dict[str, Any]:
 def scaled_jobs() -> list[tuple[str, dict[str, Any], float]]:
     """The scaling study's cases: generator C's level-2 valves (sets C and E)."""
     return [(s, r, k) for s, r in _rows()
-            if SETS.get(s) == "blind_generator_c" and r["class"] in SCALED_CLASSES
+            if s in SCALED_SETS and r["class"] in SCALED_CLASSES
             and int(r["level"]) == 2 for k in SCALES]
 
 
