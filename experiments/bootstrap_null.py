@@ -38,7 +38,8 @@ on the same loops. Nothing here changes the package; the report says what a gate
 
 Run: ``.venv/bin/python experiments/bootstrap_null.py [--B 19] [--true 24]
 [--slow-seeds 24] [--jobs 2]`` (about 13 + 8 min on 2 cores; ``--matched-only`` re-runs
-the second part alone, ``--report-only`` rewrites the report). Outputs
+the second part alone, ``--keep-matched`` the first part alone, ``--report-only``
+rewrites the report). Outputs
 ``reports/concealed/bootstrap_null.{md,csv}`` and ``bootstrap_null_matched.csv``.
 """
 
@@ -63,6 +64,7 @@ from concealed import decision_row, write_job  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.model import NominalModel  # noqa: E402
+from stictionbench.diagnosis.op_limit import held_at_limit  # noqa: E402
 from stictionbench.diagnosis.openloop import fopdt_coefficients, fopdt_response  # noqa: E402
 from stictionbench.diagnosis.slip_bootstrap import sieve_disturbance  # noqa: E402
 from stictionbench.io import atomic_path, read_recording, write_text  # noqa: E402
@@ -146,10 +148,16 @@ def run_case(case: dict, B: int) -> dict:
     out = {**case, "pick": pick, "improvement": obs}
     for d_extra in (0, 1):
         rng = np.random.default_rng([SEED, int(case["seed"]), int(case["level"]), d_extra])
-        nulls, named = [], 0
+        nulls, named, held, named_free = [], 0, 0, 0
         for _ in range(B):
-            dn = diagnose(null_recording(rec, m, r, rng, d_extra), m)
+            nr = null_recording(rec, m, r, rng, d_extra)
+            dn = diagnose(nr, m)
+            # a null whose OP the drift drives to 0 or 100 % and holds there is a
+            # saturated loop: the OP-hold check names it so, rightly; counted apart
+            at_limit = bool(held_at_limit(np.asarray(nr.OP, float), (0.0, 100.0))["held"])
             named += dn.missing_physics != "none"
+            held += at_limit
+            named_free += dn.missing_physics != "none" and not at_limit
             nulls.append(improvement_of(dn, pick) if pick != "none" else math.nan)
         nulls_a = np.asarray(nulls)
         tag = f"d{d_extra}"
@@ -157,6 +165,8 @@ def run_case(case: dict, B: int) -> dict:
         out[f"{tag}_p_boot"] = (1 + int(np.sum(nulls_a >= obs))) / (B + 1) \
             if pick != "none" else math.nan
         out[f"{tag}_null_named"] = named / B
+        out[f"{tag}_null_held"] = held / B
+        out[f"{tag}_null_named_free"] = named_free / B
     return out
 
 
@@ -255,16 +265,29 @@ def report(res: pd.DataFrame, B: int, mt: pd.DataFrame | None = None) -> str:
               if after else "", ""]
     kept: dict[tuple[str, str], tuple[int, int]] = {}
     nulls: dict[tuple[str, str], tuple[int, int]] = {}
+    held: dict[tuple[str, str], tuple[int, int]] = {}
+    free: dict[tuple[str, str], tuple[int, int]] = {}
+
+    def count(g: pd.DataFrame, col: str) -> int:
+        return int(round(float((g[col] * B).sum()))) if col in g else 0
+
     for tag, what in (("d0", "noise model as fitted"),
                       ("d1", "one integration more than fitted (a smoother, larger load)")):
         rows = []
         for kind, g in res[res.main_band].groupby("kind"):
             k = int((g[f"{tag}_p_boot"] <= LEVEL).sum())
-            named = int(round(float((g[f"{tag}_null_named"] * B).sum())))
-            kept[tag, kind], nulls[tag, kind] = (k, len(g)), (named, B * len(g))
+            n = B * len(g)
+            named = count(g, f"{tag}_null_named")
+            h = count(g, f"{tag}_null_held")
+            kept[tag, kind], nulls[tag, kind] = (k, len(g)), (named, n)
+            held[tag, kind] = (h, n)
+            free[tag, kind] = (count(g, f"{tag}_null_named_free"), n - h)
             rows.append({"cases": kind, "recordings": len(g),
                          "verdict kept by the gate": rate_text(k, len(g)),
-                         "null recordings called physics": rate_text(named, B * len(g))})
+                         "null recordings called physics": rate_text(named, n),
+                         "nulls with OP held at a limit": rate_text(h, n),
+                         "called physics, OP not held": (rate_text(*free[tag, kind])
+                                                         if free[tag, kind][1] else "—")})
         lines += [f"## Sieve: {what}", "", to_markdown(pd.DataFrame(rows)), ""]
     fa, tp = "false alarm", "true positive"
     lines += [
@@ -275,8 +298,19 @@ def report(res: pd.DataFrame, B: int, mt: pd.DataFrame | None = None) -> str:
         "the rule's false-alarm rate is near its nominal level at these loops' band dof "
         f"({res[res.kind == fa].band_dof.min():.0f}–{res[res.kind == fa].band_dof.max():.0f}).",
         f"- One integration more than fitted (a smoother and larger drift than the record "
-        f"has) raises the nulls' rate to {rate_text(*nulls['d1', fa])}: a slow load that "
-        "the AR model does not capture is enough to make healthy loops look faulty.",
+        f"has) raises the nulls' rate to {rate_text(*nulls['d1', fa])}, but that drift "
+        f"drives OP to 0 or 100 % and holds it there in {rate_text(*held['d1', fa])} of "
+        "them: those nulls are saturated loops, which the OP-hold check "
+        "(`diagnosis.op_limit`) rightly names `saturation`. "
+        + (f"On the nulls whose OP stays off its limits the rate is "
+           f"{rate_text(*free['d1', fa])} (with the fitted sieve "
+           f"{rate_text(*free['d0', fa])}). " if free['d1', fa][1] else
+           "None stays off its limits, so this variant tests nothing about the gate "
+           "here. ")
+        + "An earlier run (zero-phase band, blocks drawn before 16000, no OP-hold check) "
+        "read 35 % and took it for a slow load that the AR model misses making healthy "
+        "loops look faulty; that reading is withdrawn, since whether those nulls were "
+        "held at a limit was not recorded.",
         f"- As a gate (bootstrap p ≤ {LEVEL:g}, fitted sieve) it would keep "
         f"{rate_text(*kept['d0', fa])} of the false alarms and "
         f"{rate_text(*kept['d0', tp])} of the slow-loop true positives, at {B} extra "
@@ -316,6 +350,8 @@ def main(argv=None) -> int:
                     help="run only the matched nulls; read the stored bootstrap_null.csv")
     ap.add_argument("--report-only", action="store_true",
                     help="rewrite the report from the stored bootstrap_null.csv")
+    ap.add_argument("--keep-matched", action="store_true",
+                    help="run the cases; read the stored bootstrap_null_matched.csv")
     a = ap.parse_args(argv)
     matched_csv = OUT / "bootstrap_null_matched.csv"
     if a.report_only:
@@ -336,13 +372,17 @@ def main(argv=None) -> int:
     res = pd.DataFrame(rows).sort_values(["kind", "level", "seed"], ignore_index=True)
     with atomic_path(OUT / "bootstrap_null.csv") as tmp:
         res.to_csv(tmp, index=False, lineterminator="\n", float_format="%.6g")
-    todo_m = [(c, t, lvl, s) for c in MATCHED_CONDITIONS for t in MATCHED_TAUS
-              for lvl in (1, 2) for s in range(FIRST_SLOW_SEED, FIRST_SLOW_SEED + a.slow_seeds)]
-    mt = pd.DataFrame(list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator_unordered")(
-        delayed(run_matched)(*j) for j in todo_m), total=len(todo_m), desc="matched")))
-    mt = mt.sort_values(["condition", "tau", "level", "seed"], ignore_index=True)
-    with atomic_path(matched_csv) as tmp:
-        mt.to_csv(tmp, index=False, lineterminator="\n", float_format="%.6g")
+    if a.keep_matched and matched_csv.is_file():
+        mt = pd.read_csv(matched_csv)
+    else:
+        todo_m = [(c, t, lvl, s) for c in MATCHED_CONDITIONS for t in MATCHED_TAUS
+                  for lvl in (1, 2)
+                  for s in range(FIRST_SLOW_SEED, FIRST_SLOW_SEED + a.slow_seeds)]
+        mt = pd.DataFrame(list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator_unordered")(
+            delayed(run_matched)(*j) for j in todo_m), total=len(todo_m), desc="matched")))
+        mt = mt.sort_values(["condition", "tau", "level", "seed"], ignore_index=True)
+        with atomic_path(matched_csv) as tmp:
+            mt.to_csv(tmp, index=False, lineterminator="\n", float_format="%.6g")
     text = report(res, a.B, mt)
     write_text(OUT / "bootstrap_null.md", text)
     print(text)

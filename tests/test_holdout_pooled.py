@@ -133,3 +133,22 @@ def test_matched_table_counts_recordings_and_nulls_per_condition_and_speed():
     assert row["their nulls called physics"].startswith("2/4")
     assert row["median band_dof"] == 10.5
     assert tab.loc[("as drawn", 30.0), "their nulls called physics"].startswith("0/2")
+
+
+def test_bootstrap_report_counts_nulls_held_at_a_limit_apart() -> None:
+    """Nulls whose OP the drift holds at a limit are saturated loops: the report counts
+    them apart and says when no null is left to test the gate with."""
+    rows = []
+    for kind, cls in (("false alarm", "none"), ("true positive", "stiction")):
+        for seed in range(2):
+            rows.append({"kind": kind, "class": cls, "level": 1, "seed": seed,
+                         "band_dof": 30.0, "predicted_default": "stiction",
+                         "pick": "stiction", "improvement": 0.3,
+                         "d0_null_max": 0.1, "d0_p_boot": 0.05, "d0_null_named": 0.1,
+                         "d0_null_held": 0.0, "d0_null_named_free": 0.1,
+                         "d1_null_max": 0.2, "d1_p_boot": 0.05, "d1_null_named": 1.0,
+                         "d1_null_held": 1.0, "d1_null_named_free": 0.0})
+    text = bn.report(pd.DataFrame(rows), 10, None)
+    assert "20/20 = 100 %" in text  # d1: every null held at a limit
+    assert "tests nothing about the gate" in text
+    assert "2/20 = 10 %" in text  # d0: named, none held
