@@ -51,6 +51,7 @@ from fresh_recordings import run  # noqa: E402
 
 from stictionbench.io import atomic_path, write_text  # noqa: E402
 from stictionbench.rates import balanced_score, balanced_text, mcnemar_p, rate_text  # noqa: E402
+from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 #: the last commit before issue 10 was filed (the first release's diagnosis)
@@ -313,11 +314,7 @@ def _false_alarms(df: pd.DataFrame) -> str:
 
 
 def figure(df: pd.DataFrame, path: Path) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True)
+    fig, axes = new_figure(1, 2, figsize=(10, 3.8), sharey=True)
     for ax, (lvl, g) in zip(axes, df.groupby("level"), strict=True):
         groups = list(g.groupby("set"))
         for k, (col, colour, label) in enumerate(
@@ -338,9 +335,7 @@ def figure(df: pd.DataFrame, path: Path) -> None:
     axes[0].set_ylabel("named correctly, of 16")
     axes[1].legend(fontsize=8, loc="upper right")
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
-    plt.close(fig)
+    save_png(fig, path, dpi=120)
 
 
 def main(argv: list[str] | None = None) -> int:
