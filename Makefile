@@ -101,7 +101,10 @@ concealed: venv
 # (only the two lags replaced), scored once; then the line test measured on all of them and a fresh holdout
 # block (line_confinement), the gain test across families, the controller's rate varied on fresh healthy
 # loops of the first generator, and the hidden physics of every set put through the
-# diagnosis's own test (oracle_ceiling; about 35 minutes on 2 cores)
+# diagnosis's own test (oracle_ceiling), the healthy loops re-made with one ingredient
+# changed at a time (healthy_false_alarms), and the opt-in linear-input gate against the
+# default on them, fresh sets J and K and a fresh holdout block (linear_input_gate; about
+# 65 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -119,6 +122,8 @@ independent: venv
 	$(BIN)/python experiments/setpoint_gain.py --jobs 2
 	$(BIN)/python experiments/snapshot_op.py --loops 48 --jobs 2
 	$(BIN)/python experiments/oracle_ceiling.py --jobs 2
+	$(BIN)/python experiments/healthy_false_alarms.py --jobs 2
+	$(BIN)/python experiments/linear_input_gate.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

@@ -24,6 +24,7 @@ import concealed_families as cf  # noqa: E402
 import holdout_family as hf  # noqa: E402
 
 from stictionbench.diagnosis import NominalModel  # noqa: E402
+from stictionbench.io import atomic_path, write_text  # noqa: E402
 from stictionbench.rates import wilson  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 
@@ -50,6 +51,16 @@ def run(fn: Callable[..., dict], todo: list[tuple], jobs: int) -> pd.DataFrame:
 
     gen = Parallel(n_jobs=jobs, return_as="generator")(delayed(fn)(*c) for c in todo)
     return pd.DataFrame(list(tqdm(gen, total=len(todo), desc="diagnose", unit="rec")))
+
+
+def publish(df: pd.DataFrame, text: str, stem: Path) -> None:
+    """An experiment's outputs: ``stem.csv`` (the per-recording table) and ``stem.md``
+    (the report), each written atomically, and the report printed."""
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(stem.with_suffix(".csv")) as tmp:
+        df.to_csv(tmp, index=False)
+    write_text(stem.with_suffix(".md"), text)
+    print(text)
 
 
 def rate_bars(ax, groups: Iterable[pd.DataFrame], hit: Callable[[pd.DataFrame, str], int],

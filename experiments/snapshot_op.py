@@ -39,10 +39,10 @@ sys.path.insert(0, str(ROOT / "experiments"))
 sys.path.insert(0, str(ROOT / "experiments" / "blind_generator"))
 
 import generate as bg  # noqa: E402
-from fresh_recordings import run  # noqa: E402
+from fresh_recordings import publish, run  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
-from stictionbench.io import atomic_path, read_recording, write_text  # noqa: E402
+from stictionbench.io import read_recording  # noqa: E402
 from stictionbench.rates import fisher_p, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
@@ -128,12 +128,7 @@ def main(argv: list[str] | None = None) -> int:
     todo = [(FIRST_SEED + 100 * level + i, level, period) for level in (1, 2)
             for i in range(args.loops) for period in (None, 1.0)]
     df = run(one, todo, args.jobs)
-    OUT.mkdir(parents=True, exist_ok=True)
-    with atomic_path(OUT / "snapshot_op.csv") as tmp:
-        df.to_csv(tmp, index=False)
-    text = report(df)
-    write_text(OUT / "snapshot_op.md", text)
-    print(text)
+    publish(df, report(df), OUT / "snapshot_op")
     return 0
 
 

@@ -32,11 +32,14 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
             raise InputError(f"--op-range: expected LO HI with HI > LO, got {lo:g} {hi:g}")
         op_range = (lo, hi)
+    if args.linear_input_gate and model is None:
+        raise InputError("--linear-input-gate needs --model: it tests a valve against a "
+                         "given model")
     if args.slip_jump_bootstrap < 0:
         raise InputError(f"--slip-jump-bootstrap: expected a number of null recordings "
                          f">= 0, got {args.slip_jump_bootstrap}")
     d = diagnose(rec, model, op_range=op_range, slip_jump_bootstrap=args.slip_jump_bootstrap,
-                 bootstrap_seed=args.bootstrap_seed)
+                 bootstrap_seed=args.bootstrap_seed, linear_input_gate=args.linear_input_gate)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
@@ -90,4 +93,8 @@ def add_command(sub) -> None:
                         "default 0: the chi-square test")
     p.add_argument("--bootstrap-seed", type=int, default=0, metavar="SEED",
                    help="seed of the bootstrap's resampling (default 0)")
+    p.add_argument("--linear-input-gate", action="store_true",
+                   help="with --model, name a dead band or stiction only where it also "
+                        "beats the model with a linear four-tap FIR on OP (a PI faster "
+                        "than the historian, a load OP answers); off by default")
     p.set_defaults(func=cmd_diagnose)

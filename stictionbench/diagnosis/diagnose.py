@@ -62,6 +62,7 @@ from .gain import GainTest, setpoint_gain
 from .hammerstein import HP_FACTOR, HammersteinResult, fit_hammerstein
 from .hypotheses import HYPOTHESES, Context, Nominal, lowpass_corner
 from .line import line_confinement
+from .linear_input import linear_input_test
 from .locate import (
     dominant_periods,
     mismatch_band,
@@ -427,7 +428,7 @@ def _valve_fits(cmp: Comparison, names: tuple[str, ...], h: HammersteinResult,
 
 
 def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit], *,
-                            fixed: bool = False) -> None:
+                            fixed: bool = False, linear_input_gate: bool = False) -> None:
     """Refit every hypothesis by its one-step prediction errors ``H⁻¹(y − ŷ)`` under one
     noise model ``H``: the AR (or integrated AR) model of the output error of the best
     output-error fit — the larger model's, so that a limit cycle or a line the nominal
@@ -440,7 +441,9 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit], *,
     next blind one and lost stiction on regulatory loops and ISDB: not shipped, see
     ``experiments/holdout_family.py``'s ``SEEN_FRESH[9000]``). ``fixed`` keeps every
     hypothesis at its parameters and refits only its linear part (a hypothesis whose
-    parameters are known: ``experiments/oracle_ceiling.py``)."""
+    parameters are known: ``experiments/oracle_ceiling.py``). ``linear_input_gate``: a
+    valve against a given model must also beat the nominal model with a four-tap FIR on OP
+    (:mod:`.linear_input`), its p-value the fit's ``gate_p``."""
     best = min(fits, key=lambda k: fits[k].cost_train)
     noise = fit_noise_model(fits[best].resid[cmp.prob.train])
     for name, ft in list(fits.items()):
@@ -460,11 +463,21 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit], *,
             new.n_params = ft.n_params
         new.extra, new.gate_p = ft.extra, ft.gate_p
         fits[name] = new
+    if cmp.ctx.model_given and linear_input_gate and not fixed:
+        # a valve must also beat a linear change of the process input (.linear_input)
+        for name in VALVE_HYPOTHESES:
+            if name in fits:
+                ft = fits[name]
+                t = linear_input_test(cmp.prob, noise, Nominal(), fits["none"],
+                                      HYPOTHESES[name], ft)
+                ft.gate_p = t["p_value"] if ft.gate_p is None else max(ft.gate_p,
+                                                                       t["p_value"])
+                ft.extra = {**ft.extra, "linear_input": t}
     cmp.nominal = fits["none"]
 
 
-def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA) -> tuple[
-        dict[str, Fit], HammersteinResult | None]:
+def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA,
+        linear_input_gate: bool = False) -> tuple[dict[str, Fit], HammersteinResult | None]:
     """Stage 4: every candidate fitted on the training blocks; validation NRMSE (the
     simulation error users understand) on the validation blocks. Without a given model
     the valve identification runs first and its linear loop may replace the nominal
@@ -482,7 +495,7 @@ def fit(cmp: Comparison, names: tuple[str, ...], *, alpha: float = ALPHA) -> tup
     if h is not None:
         _valve_fits(cmp, names, h, fits)
     if cmp.pem:
-        _prediction_error_refit(cmp, fits)
+        _prediction_error_refit(cmp, fits, linear_input_gate=linear_input_gate)
     validation_nrmse(cmp, fits)
     return fits, h
 
@@ -635,7 +648,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              min_improvement: float = MIN_IMPROVEMENT, hp_factor: float = HP_FACTOR,
              lp_factor: float = 5.0, hypotheses: tuple[str, ...] | None = None,
              pem: bool = True, op_range: tuple[float, float] | None = None,
-             slip_jump_bootstrap: int = 0, bootstrap_seed: int = 0) -> Diagnosis:
+             slip_jump_bootstrap: int = 0, bootstrap_seed: int = 0,
+             linear_input_gate: bool = False) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -672,6 +686,12 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         default) keeps χ²₁. ``tests.slip_jump_zero`` then holds both p-values.
     bootstrap_seed : int
         Seed of the bootstrap's resampling.
+    linear_input_gate : bool
+        Against a given model, name a dead band or stiction only where it also beats
+        the nominal model with a four-tap FIR on OP (:mod:`.linear_input`: evidence that
+        the valve is nonlinear, not a controller faster than the historian or a load OP
+        answers); its p-value is the ranking's ``p_gate``. Off by default
+        (``reports/concealed/linear_input_gate.md`` measures it).
 
     Returns
     -------
@@ -692,7 +712,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
                   op_range=op_range)
     loc = locate(cmp)
     names = hypothesise(cmp, loc, hypotheses)
-    fits, ham = fit(cmp, names, alpha=alpha)
+    fits, ham = fit(cmp, names, alpha=alpha, linear_input_gate=linear_input_gate)
     if slip_jump_bootstrap:
         _bootstrap_slip_jump(cmp, ham, slip_jump_bootstrap, bootstrap_seed)
     dof = band_dof(cmp.prob.val.size, cmp.ctx.Ts, cmp.prob.f_hp, cmp.prob.f_lp)
@@ -729,6 +749,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     d = name_held_limit(d, held, changed and named == "saturation")
     d = name_gain_error(d, gain, changed and named == "valve_characteristic")
     d.details["band_dof"] = dof
+    d.details["linear_input_gate"] = bool(linear_input_gate and cmp.ctx.model_given)
     d.details["nrmse_gate"] = gate
     if (why := record_warning(dof)) is not None:
         d.details["record_warning"] = why

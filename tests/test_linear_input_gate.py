@@ -1,0 +1,44 @@
+"""``experiments/linear_input_gate.py``: the class-balanced score it reports, its summary's
+paired counts, and one holdout recording diagnosed under both settings."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "experiments"))
+
+import linear_input_gate as lig  # noqa: E402
+
+
+def _frame() -> pd.DataFrame:
+    rows = [("none", "none", "deadband"), ("none", "stiction", "none"),
+            ("stiction", "stiction", "stiction"), ("stiction", "stiction", "none")]
+    return pd.DataFrame([{"part": "p", "level": 1, "class": c, "default": d, "gate": g}
+                         for c, d, g in rows])
+
+
+def test_score_weighs_classes_equally():
+    df = _frame()
+    # default: none 1/2, stiction 2/2 -> 2 x 1.5; gate: none 1/2, stiction 1/2 -> 2 x 1
+    assert lig._score(df, "default") == 3.0
+    assert lig._score(df, "gate") == 2.0
+
+
+def test_summary_counts_the_changed_recordings():
+    row = lig.summary(_frame()).iloc[0]
+    assert row["right only with the gate / only default"].startswith("1 / 2")
+    assert row["healthy loops called physics, default"].startswith("1/2")
+    assert row["healthy called physics, gate"].startswith("1/2")
+
+
+def test_one_holdout_recording_under_both_settings():
+    r = lig.one_holdout("stiction", 1, lig.HOLDOUT_FIRST)
+    assert r["class"] == "stiction" and r["level"] == 1
+    assert {r["default"], r["gate"]} <= {"none", "stiction", "deadband", "sensor_lag",
+                                         "dead_time", "valve_characteristic", "saturation",
+                                         "oscillatory_disturbance"}
+    assert r["seconds_gate"] > 0 and r["seconds_default"] > 0
