@@ -59,7 +59,8 @@ from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 SETS = ("a", "b", "d", "f", "h")          # generator A's sets
 SETS_C = ("c", "e", "g", "i")             # generator C's
-VARIANTS_C = ("as_recorded", "exact_model", "no_load", "quiet_pv", "pi_1s")
+VARIANTS_C = ("as_recorded", "exact_model", "no_load", "quiet_pv", "pi_1s",
+              "quiet_pv+gate", "quiet_pv+no_load", "quiet_pv+exact_model")
 DATA = ROOT / ".cache" / "blindgen"
 OUT = ROOT / "reports" / "concealed"
 VARIANTS = ("as_recorded", "no_load", "load_x0.3", "quiet_pv", "pi_1s", "op_average",
@@ -77,25 +78,31 @@ def _load_generator(folder: str):
 
 
 def remake_c(seed: int, level: int, variant: str, out: Path) -> dict:
-    """Generator C's healthy recording re-made with ``variant`` (its random streams are
-    per purpose, so a change after the draw leaves every other draw as it was)."""
+    """Generator C's healthy recording re-made with ``variant``, its ingredients joined by
+    ``+`` (its random streams are per purpose, so a change after the draw leaves every
+    other draw as it was; ``gate`` changes the diagnosis, not the recording)."""
     g = _load_generator("blind_generator_c")
     draw_loop, draw_conditions = g.draw_loop, g.draw_conditions
-    if variant in ("exact_model", "pi_1s"):
-        def loop(seed_):
-            lp = draw_loop(seed_)
-            if variant == "pi_1s":
-                return lp | {"tc": 1.0}
-            return lp | {"K_t": lp["K"], "tau1": lp["tau"], "tau2": 0.0,
-                         "theta_t": lp["theta"]}
-        g.draw_loop = loop
-    elif variant in ("no_load", "quiet_pv"):
-        def conditions(seed_, level_, lp):
-            c = draw_conditions(seed_, level_, lp)
-            if variant == "no_load":
-                return c | {"load_drift": 0.0, "load_step": 0.0, "load_step_time": None}
-            return c | {"noise_sd": 0.1 * c["noise_sd"], "op_noise": 0.1 * c["op_noise"]}
-        g.draw_conditions = conditions
+    parts = set(variant.split("+"))
+
+    def loop(seed_):
+        lp = draw_loop(seed_)
+        if "pi_1s" in parts:
+            lp = lp | {"tc": 1.0}
+        if "exact_model" in parts:
+            lp = lp | {"K_t": lp["K"], "tau1": lp["tau"], "tau2": 0.0,
+                       "theta_t": lp["theta"]}
+        return lp
+
+    def conditions(seed_, level_, lp):
+        c = draw_conditions(seed_, level_, lp)
+        if "no_load" in parts:
+            c = c | {"load_drift": 0.0, "load_step": 0.0, "load_step_time": None}
+        if "quiet_pv" in parts:
+            c = c | {"noise_sd": 0.1 * c["noise_sd"], "op_noise": 0.1 * c["op_noise"]}
+        return c
+
+    g.draw_loop, g.draw_conditions = loop, conditions
     res = g.make_recording(seed, level, "none")
     g.write_recording(str(out), res)
     lp = res["loop"]
@@ -104,14 +111,16 @@ def remake_c(seed: int, level: int, variant: str, out: Path) -> dict:
 
 
 def _diagnose_remade(d: Path, set_: str, name: str, variant: str):
-    """The re-made recording in ``d`` diagnosed with its model YAML, and for
-    ``as_recorded`` whether its CSV is the set's byte for byte (else ``None``)."""
+    """The re-made recording in ``d`` diagnosed with its model YAML (with the linear-input
+    gate for a ``gate`` variant), and for ``as_recorded`` whether its CSV is the set's
+    byte for byte (else ``None``)."""
     same = None
     if variant == "as_recorded":
         same = ((d / f"{name}.csv").read_bytes()
                 == (DATA / f"set_{set_}" / f"{name}.csv").read_bytes())
     rec = read_recording(str(d / f"{name}.csv"), warn=False)
-    return same, diagnose(rec, load_model(d / f"{name}.model.yaml"))
+    return same, diagnose(rec, load_model(d / f"{name}.model.yaml"),
+                          linear_input_gate="gate" in variant.split("+"))
 
 
 def one_c(set_: str, name: str, seed: int, level: int, variant: str) -> dict:
@@ -296,6 +305,32 @@ def _physics_table(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _reading_c(c: pd.DataFrame) -> str:
+    """Generator C's reading, every number from the table's data."""
+    def n(v, named=None):
+        d = c[c.variant == v]
+        hit = d.predicted != "none" if named is None else d.predicted == named
+        return int(hit.sum())
+
+    total = c[c.variant == "as_recorded"].name.nunique()
+    return "\n".join([
+        "Reading:",
+        f"- Without the load the false alarms go from {n('as_recorded')} to {n('no_load')} "
+        f"of {total}; an exact model ({n('exact_model')}) or the PI at 1 s "
+        f"({n('pi_1s')}) change little: here the unmeasured load OP answers is the cause.",
+        f"- With a tenth of the PV noise the tests' power turns the load into "
+        f"{n('quiet_pv')} false alarms ({n('quiet_pv', 'deadband')} of them a dead band); "
+        f"without the load then {n('quiet_pv+no_load')} ({n('quiet_pv+no_load', 'deadband')} "
+        f"dead bands), with an exact model {n('quiet_pv+exact_model')}. The linear-input "
+        f"gate leaves {n('quiet_pv+gate')} ({n('quiet_pv+gate', 'deadband')} dead bands): "
+        "what a dead band takes from a load OP answers is not linear in OP's recent moves "
+        "(a likely reason, not checked: a dead band's lag follows the sign of OP's "
+        "motion, which a quiet OP shows cleanly). A noise model that predicts such a "
+        "load as well as the dead band does is not built; this is where the next work on "
+        "false alarms lies.",
+    ])
+
+
 def _generator_c_section(c: pd.DataFrame) -> list[str]:
     base = c[c.variant == "as_recorded"]
     same = base.same_csv.astype(bool)
@@ -310,8 +345,11 @@ def _generator_c_section(c: pd.DataFrame) -> list[str]:
         "their model: its truth is the model seen through an identification error (gain "
         "and lag within 8 %, dead time within 6 %, and a small second lag split by the "
         "half rule). `exact_model` makes the truth the YAML's model; `pi_1s`, `no_load` "
-        "and `quiet_pv` as for generator A (the load: its random walk and step).", "",
+        "and `quiet_pv` as for generator A (the load: its random walk and step); `+` "
+        "joins two changes, and `gate` diagnoses with the linear-input gate "
+        "([linear_input_gate.md](linear_input_gate.md)).", "",
         to_markdown(_healthy_table(c, VARIANTS_C)), "",
+        _reading_c(c), "",
         f"Dead-time error of the model (|true/model − 1|, median): "
         f"{err[list(fa)].median():.3f} on the false alarms, "
         f"{err.drop(list(fa)).median():.3f} on the others.", "",
