@@ -53,6 +53,18 @@ def run(fn: Callable[..., dict], todo: list[tuple], jobs: int) -> pd.DataFrame:
     return pd.DataFrame(list(tqdm(gen, total=len(todo), desc="diagnose", unit="rec")))
 
 
+def generator_module(folder: str):
+    """A freshly loaded copy of the independent generator ``experiments/FOLDER/generate.py``
+    (its own module object: an experiment may patch its functions)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(folder, ROOT / "experiments" / folder
+                                                  / "generate.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 def publish(df: pd.DataFrame, text: str, stem: Path) -> None:
     """An experiment's outputs: ``stem.csv`` (the per-recording table) and ``stem.md``
     (the report), each written atomically, and the report printed."""

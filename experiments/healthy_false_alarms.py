@@ -36,7 +36,6 @@ Output: ``reports/concealed/healthy_false_alarms.{md,csv}``.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import math
 import sys
 import tempfile
@@ -44,15 +43,15 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.signal import butter, filtfilt
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import publish, run  # noqa: E402
+from fresh_recordings import generator_module, publish, run  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
+from stictionbench.diagnosis.openloop import highpass  # noqa: E402
 from stictionbench.io import read_recording  # noqa: E402
 from stictionbench.rates import mcnemar_p, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -70,11 +69,7 @@ VARIANTS = ("as_recorded", "no_load", "load_x0.3", "quiet_pv", "pi_1s", "op_aver
 def _load_generator(folder: str):
     """A fresh copy of ``experiments/FOLDER/generate.py`` (a variant patches its module
     functions, so every recording gets its own copy)."""
-    spec = importlib.util.spec_from_file_location(
-        folder, ROOT / "experiments" / folder / "generate.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return generator_module(folder)
 
 
 def remake_c(seed: int, level: int, variant: str, out: Path) -> dict:
@@ -177,10 +172,9 @@ def second_means(res: dict, Tc: float) -> np.ndarray:
 
 
 def pv_fast_part(pv: np.ndarray, tau: float, corner: float = 5.0) -> np.ndarray:
-    """PV above ``corner`` process corner frequencies (zero-phase Butterworth high-pass,
-    1 s samples): the best of the PV-noise estimates tried (see the report)."""
-    b, a = butter(2, min(corner / (2 * math.pi * tau) / 0.5, 0.9), btype="high")
-    return filtfilt(b, a, pv - float(np.mean(pv)))
+    """PV above ``corner`` process corner frequencies (the package's zero-phase
+    high-pass, 1 s samples): the best of the PV-noise estimates tried (see the note)."""
+    return highpass(np.asarray(pv, float), 1.0, corner / (2 * math.pi * tau))
 
 
 def remake(seed: int, level: int, variant: str, out: Path, name: str,
@@ -228,10 +222,12 @@ def remake(seed: int, level: int, variant: str, out: Path, name: str,
 def snapshot_error(res: dict, avg: np.ndarray, p: dict) -> dict:
     """How much of the snapshot's input error ``avg − OP`` the kick on the snapshot's own
     PV noise explains (R² of ``(1 − Tc)·kc·n_k``), and how well the PV estimate of that
-    noise reproduces, where the comparison looks (through the process, high-passed at
-    the diagnosis's corner), the process's response to the true noise."""
+    noise reproduces, where the comparison looks (through the process, in the band the
+    diagnosis compares in against a given model), the process's response to the true
+    noise."""
     from stictionbench.diagnosis.hammerstein import HP_FACTOR
-    from stictionbench.diagnosis.openloop import fopdt_response
+    from stictionbench.diagnosis.hypotheses import lowpass_corner
+    from stictionbench.diagnosis.openloop import band_of, fopdt_response
 
     err = avg - res["op"]
     n_k = res["ctrl_noise"][_snapshots(res, p["Tc"])]
@@ -239,10 +235,10 @@ def snapshot_error(res: dict, avg: np.ndarray, p: dict) -> dict:
     var = float(np.var(err))
     r2 = 1.0 - float(np.var(err - x)) / var if var > 0 else math.nan
     f_hp = HP_FACTOR / (2 * math.pi * (p["tau"] + p["theta"]))
-    b, a = butter(2, f_hp / 0.5, btype="high")
+    f_lp = lowpass_corner(1.0, p["tau"])
 
     def seen(v):
-        return filtfilt(b, a, fopdt_response(v, 1.0, p["tau"], p["theta"]))
+        return band_of(True)(fopdt_response(v, 1.0, p["tau"], p["theta"]), 1.0, f_hp, f_lp)
 
     est = pv_fast_part(res["pv"], p["tau"])
     return {"kick_r2": r2, "noise_corr": float(np.corrcoef(est, n_k)[0, 1]),
@@ -408,8 +404,10 @@ def _reading(h: pd.DataFrame) -> str:
         "noise that kick is most of the snapshot's error, and the PV estimate follows the "
         "noise sample by sample, but not where the comparison looks: the kick's effect on "
         "PV is its slow part, through the process, and there PV's noise cannot be told "
-        "from the process's own motion (table above). With coloured noise the kick "
-        "persists through the second and the error is the in-between moves. Correcting OP "
+        "from the process's own motion (table above). With coloured (AR(1)) noise the "
+        "kick explains little of the error (negative R² above: the later executions see "
+        "much the same noise; the noise's correlation time was not varied here). "
+        "Correcting OP "
         "from the recording alone therefore does not remove these false alarms; data do: "
         "OP at the controller's rate, or each sample period's mean (which, below, costs "
         "the held-limit reading of saturation).",

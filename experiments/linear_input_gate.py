@@ -43,7 +43,7 @@ from fresh_recordings import CLASSES, publish, recording, run  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.io import read_recording  # noqa: E402
-from stictionbench.rates import mcnemar_p, rate_text  # noqa: E402
+from stictionbench.rates import balanced_text, mcnemar_p, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 DATA = ROOT / ".cache" / "blindgen"
@@ -87,11 +87,6 @@ def _ensure_fresh_sets() -> None:
                            stdout=subprocess.DEVNULL)
 
 
-def _score(x: pd.DataFrame, col: str) -> float:
-    """Named right out of 16, the eight classes weighted equally (two per class)."""
-    return 2.0 * float(x.assign(ok=x[col] == x["class"]).groupby("class").ok.mean().sum())
-
-
 #: the report's row groups, in order
 PARTS = ("A–I (in-sample for the design)", "J, K (fresh)", "holdout block 42000 (fresh)")
 
@@ -106,8 +101,9 @@ def summary(df: pd.DataFrame) -> pd.DataFrame:
         gained, lost = int((ok1 & ~ok0).sum()), int((ok0 & ~ok1).sum())
         h = x[x["class"] == "none"]
         rows.append({"recordings": part, "level": lv,
-                     "named right of 16, default": f"{_score(x, 'default'):.2f}",
-                     "named right, gate": f"{_score(x, 'gate'):.2f}",
+                     "named right of 16, default": balanced_text(x.default == x["class"],
+                                                                 x["class"]),
+                     "named right, gate": balanced_text(x.gate == x["class"], x["class"]),
                      "right only with the gate / only default":
                          f"{gained} / {lost} (p = {mcnemar_p(gained, lost):.2g})",
                      "healthy loops called physics, default":

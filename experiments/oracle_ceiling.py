@@ -51,7 +51,6 @@ from __future__ import annotations
 import argparse
 import copy
 import importlib
-import importlib.util
 import sys
 import time
 from dataclasses import replace
@@ -67,7 +66,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import rate_bars, run  # noqa: E402
+from fresh_recordings import generator_module, rate_bars, run  # noqa: E402
 
 from stictionbench.diagnosis import load_model  # noqa: E402
 from stictionbench.diagnosis.fit import fit_at  # noqa: E402
@@ -109,11 +108,7 @@ _GENERATORS: dict[str, Any] = {}
 def generator(name: str):
     """The generator module ``experiments/NAME/generate.py`` (loaded once per process)."""
     if name not in _GENERATORS:
-        spec = importlib.util.spec_from_file_location(name, ROOT / "experiments" / name
-                                                      / "generate.py")
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-        _GENERATORS[name] = mod
+        _GENERATORS[name] = generator_module(name)
     return _GENERATORS[name]
 
 

@@ -16,23 +16,25 @@ import linear_input_gate as lig  # noqa: E402
 
 def _frame() -> pd.DataFrame:
     rows = [("none", "none", "deadband"), ("none", "stiction", "none"),
+            ("none", "none", "none"),
             ("stiction", "stiction", "stiction"), ("stiction", "stiction", "none")]
     return pd.DataFrame([{"part": "p", "level": 1, "class": c, "default": d, "gate": g}
                          for c, d, g in rows])
 
 
 def test_score_weighs_classes_equally():
-    df = _frame()
-    # default: none 1/2, stiction 2/2 -> 2 x 1.5; gate: none 1/2, stiction 1/2 -> 2 x 1
-    assert lig._score(df, "default") == 3.0
-    assert lig._score(df, "gate") == 2.0
+    row = lig.summary(_frame()).iloc[0]
+    # default: none 2/3, stiction 2/2 -> 16 x 5/6 = 13.3 (pooled 4/5 would give 12.8);
+    # gate: none 2/3, stiction 1/2 -> 16 x 7/12 = 9.3
+    assert row["named right of 16, default"].startswith("13.3 [")
+    assert row["named right, gate"].startswith("9.3 [")
 
 
 def test_summary_counts_the_changed_recordings():
     row = lig.summary(_frame()).iloc[0]
     assert row["right only with the gate / only default"].startswith("1 / 2")
-    assert row["healthy loops called physics, default"].startswith("1/2")
-    assert row["healthy called physics, gate"].startswith("1/2")
+    assert row["healthy loops called physics, default"].startswith("1/3")
+    assert row["healthy called physics, gate"].startswith("1/3")
 
 
 def test_one_holdout_recording_under_both_settings():
