@@ -103,8 +103,9 @@ concealed: venv
 # loops of the first generator, and the hidden physics of every set put through the
 # diagnosis's own test (oracle_ceiling), the healthy loops re-made with one ingredient
 # changed at a time (healthy_false_alarms), and the opt-in linear-input gate against the
-# default on them, fresh sets J and K and a fresh holdout block (linear_input_gate; about
-# 65 minutes on 2 cores in all)
+# default on them, fresh sets J and K and a fresh holdout block (linear_input_gate), and
+# the likelihood tests' high-pass order varied on all of them and another fresh holdout
+# block (likelihood_highpass; about 100 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -124,6 +125,7 @@ independent: venv
 	$(BIN)/python experiments/oracle_ceiling.py --jobs 2
 	$(BIN)/python experiments/healthy_false_alarms.py --jobs 2
 	$(BIN)/python experiments/linear_input_gate.py --jobs 2
+	$(BIN)/python experiments/likelihood_highpass.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

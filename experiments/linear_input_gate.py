@@ -78,7 +78,17 @@ def one_holdout(cls: str, level: int, seed: int) -> dict:
             "level": level, **_both(rec, model)}
 
 
-def _ensure_fresh_sets() -> None:
+def set_truth(s: str) -> pd.DataFrame:
+    """Set ``s``'s ``truth.csv`` with ``group`` = ``s`` and, for a set of :data:`SEEN`,
+    the shipped code's stored verdict (``independent_set_S.csv``) as ``predicted``."""
+    t = pd.read_csv(DATA / f"set_{s}" / "truth.csv").assign(group=s)
+    if s in SEEN:
+        stored = pd.read_csv(OUT / f"independent_set_{s}.csv", usecols=["name", "predicted"])
+        t = t.merge(stored, on="name")
+    return t
+
+
+def ensure_fresh_sets() -> None:
     for s, (gen, seed) in FRESH.items():
         if not (DATA / f"set_{s}" / "truth.csv").exists():
             subprocess.run([sys.executable, str(ROOT / "experiments" / gen / "generate.py"),
@@ -158,14 +168,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args(argv)
-    _ensure_fresh_sets()
+    ensure_fresh_sets()
     truth, todo_sets = [], []
     for s in SEEN + tuple(FRESH):
-        t = pd.read_csv(DATA / f"set_{s}" / "truth.csv").assign(group=s)
+        t = set_truth(s)
         if s in SEEN:
-            stored = pd.read_csv(OUT / f"independent_set_{s}.csv",
-                                 usecols=["name", "predicted"])
-            t = t.merge(stored, on="name")
             named_valve = t.predicted.isin(VALVES)
             truth.append(t[~named_valve].assign(default=t.predicted, gate=t.predicted))
             t = t[named_valve]

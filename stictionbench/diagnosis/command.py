@@ -35,11 +35,15 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.linear_input_gate and model is None:
         raise InputError("--linear-input-gate needs --model: it tests a valve against a "
                          "given model")
+    if args.test_highpass_order != 2 and model is None:
+        raise InputError("--test-highpass-order needs --model: without one the "
+                         "comparison keeps its zero-phase band")
     if args.slip_jump_bootstrap < 0:
         raise InputError(f"--slip-jump-bootstrap: expected a number of null recordings "
                          f">= 0, got {args.slip_jump_bootstrap}")
     d = diagnose(rec, model, op_range=op_range, slip_jump_bootstrap=args.slip_jump_bootstrap,
-                 bootstrap_seed=args.bootstrap_seed, linear_input_gate=args.linear_input_gate)
+                 bootstrap_seed=args.bootstrap_seed, linear_input_gate=args.linear_input_gate,
+                 test_highpass_order=args.test_highpass_order)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
@@ -97,4 +101,11 @@ def add_command(sub) -> None:
                    help="with --model, name a dead band or stiction only where it also "
                         "beats the model with a linear four-tap FIR on OP (a PI faster "
                         "than the historian, a load OP answers); off by default")
+    p.add_argument("--test-highpass-order", type=int, default=2, choices=(0, 1, 2),
+                   metavar="{0,1,2}",
+                   help="with --model, the high-pass order of the output errors the "
+                        "likelihood-ratio tests whiten: 2 (default) the comparison band's, "
+                        "1 first order, 0 none (an integrated noise model does the "
+                        "differencing; fewer healthy loops called faulty, less physics "
+                        "named)")
     p.set_defaults(func=cmd_diagnose)

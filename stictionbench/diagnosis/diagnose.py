@@ -74,7 +74,7 @@ from .locate import (
 from .model import NominalModel, fit_pi, identify_pi
 from .noise import fit_noise_model
 from .op_limit import held_at_limit
-from .openloop import band_of
+from .openloop import LIKELIHOOD_HIGHPASS_ORDERS, band_of
 from .process import (
     MIN_SETPOINT_EXCITATION,
     fit_fopdt,
@@ -530,19 +530,23 @@ def cycle_evidence(rec: Recording, model: NominalModel, valve: dict[str, Any], f
 
 
 def validate(cmp: Comparison, fits: dict[str, Fit], ham: HammersteinResult | None = None, *,
-             alpha: float = ALPHA, min_improvement: float = MIN_IMPROVEMENT) -> Verdict:
+             alpha: float = ALPHA, min_improvement: float = MIN_IMPROVEMENT,
+             highpass_order: int = 2) -> Verdict:
     """Stage 5: prediction-error evidence (:func:`.evidence.validate`), one step and
     ``τ + θ`` ahead (the loop's time scale), and, with a valve identification ``ham``,
     whether its valve reproduces the recorded oscillation in closed loop
     (:func:`cycle_evidence`); the dead time's own-resolution rule only against a given
-    model on a recording with set-point excitation (:func:`own_resolution`)."""
+    model on a recording with set-point excitation (:func:`own_resolution`);
+    ``highpass_order`` the high-pass of the output errors the tests whiten against a given
+    model (:func:`.openloop.likelihood_highpass`)."""
     c = cmp.ctx
     horizon = max(1, int(round((c.tau + c.theta) / c.Ts)))
     cycle = None if ham is None else \
         cycle_evidence(cmp.rec, cmp.model, ham.to_dict(), cmp.prob.f_hp)
     return _validate(fits, c.pv, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val,
                      alpha=alpha, min_improvement=min_improvement, horizon=horizon,
-                     cycle=cycle, own_resolution=own_resolution(cmp.rec, c.model_given))
+                     cycle=cycle, own_resolution=own_resolution(cmp.rec, c.model_given),
+                     highpass_order=highpass_order)
 
 
 #: the second look's slow-load high-pass as a fraction of the main band's
@@ -571,7 +575,7 @@ class SecondLook:
 
 def second_look(cmp: Comparison, verdict: Verdict, *, alpha: float = ALPHA,
                 min_improvement: float = MIN_IMPROVEMENT,
-                lp_factor: float = 5.0) -> SecondLook | None:
+                lp_factor: float = 5.0, highpass_order: int = 2) -> SecondLook | None:
     """A slow external line, looked for where the main band cannot see it: against a
     given model, when the main verdict is ``none``, the oscillatory disturbance alone is
     compared, fitted and validated again with the slow-load high-pass at
@@ -614,7 +618,8 @@ def second_look(cmp: Comparison, verdict: Verdict, *, alpha: float = ALPHA,
     fits2, _ = fit(c2, hypothesise(c2, loc2, (name,)))
     if name not in fits2:
         return None
-    v2 = validate(c2, fits2, alpha=alpha, min_improvement=min_improvement)
+    v2 = validate(c2, fits2, alpha=alpha, min_improvement=min_improvement,
+                  highpass_order=highpass_order)
     corner = 1.0 / cmp.prob.f_hp
     row = next(r for r in v2.ranking if r["physics"] == name)
     return SecondLook(c2, loc2, fits2, v2, corner,
@@ -649,7 +654,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              lp_factor: float = 5.0, hypotheses: tuple[str, ...] | None = None,
              pem: bool = True, op_range: tuple[float, float] | None = None,
              slip_jump_bootstrap: int = 0, bootstrap_seed: int = 0,
-             linear_input_gate: bool = False) -> Diagnosis:
+             linear_input_gate: bool = False, test_highpass_order: int = 2) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -692,6 +697,13 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         the valve is nonlinear, not a controller faster than the historian or a load OP
         answers); its p-value is the ranking's ``p_gate``. Off by default
         (``reports/concealed/linear_input_gate.md`` measures it).
+    test_highpass_order : int
+        Against a given model, the high-pass order of the output errors the
+        likelihood-ratio tests whiten (:func:`.openloop.likelihood_highpass`): 2, the default,
+        the comparison band's; 1 a first-order high-pass at its corner; 0 none, the
+        integrated noise model then doing the differencing. Lower orders call fewer
+        healthy loops faulty and name less physics
+        (``reports/concealed/likelihood_highpass.md`` measures both).
 
     Returns
     -------
@@ -719,9 +731,13 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     # against a given model the NRMSE gate grows where the band holds few independent
     # validation samples (evidence.scaled_gate: slow loops sampled fast)
     gate = scaled_gate(min_improvement, dof) if cmp.ctx.model_given else min_improvement
-    verdict = validate(cmp, fits, ham, alpha=alpha, min_improvement=gate)
+    if test_highpass_order not in LIKELIHOOD_HIGHPASS_ORDERS:
+        raise ValueError(f"test_highpass_order must be one of {LIKELIHOOD_HIGHPASS_ORDERS}, "
+                         f"got {test_highpass_order}")
+    verdict = validate(cmp, fits, ham, alpha=alpha, min_improvement=gate,
+                       highpass_order=test_highpass_order)
     look = second_look(cmp, verdict, alpha=alpha, min_improvement=min_improvement,
-                       lp_factor=lp_factor)
+                       lp_factor=lp_factor, highpass_order=test_highpass_order)
     if (look is None or not look.named) and cmp.ctx.model_given and cmp.pem:
         # a travel limit or curved characteristic whose episodes the validation blocks
         # miss: the full-data test, where nothing else was named (evidence.range_fallback)
@@ -750,6 +766,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     d = name_gain_error(d, gain, changed and named == "valve_characteristic")
     d.details["band_dof"] = dof
     d.details["linear_input_gate"] = bool(linear_input_gate and cmp.ctx.model_given)
+    d.details["test_highpass_order"] = test_highpass_order if cmp.ctx.model_given else None
     d.details["nrmse_gate"] = gate
     if (why := record_warning(dof)) is not None:
         d.details["record_warning"] = why

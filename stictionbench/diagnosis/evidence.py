@@ -61,7 +61,7 @@ from .cycle import CycleCheck
 from .fit import Fit
 from .hypotheses import HYPOTHESES, Nominal
 from .noise import NoiseModel, fit_noise_model, input_independence, ljung_box, lr_test
-from .openloop import band_of
+from .openloop import band_of, likelihood_highpass
 
 #: test level of the likelihood-ratio tests (and of the slip-jump interval) and the least
 #: relative improvement of the validation NRMSE, from the tuning rule of the three-family
@@ -128,10 +128,17 @@ class Verdict:
     own_resolution: frozenset[str] = OWN_RESOLUTION
 
 
-def output_error(fit: Fit, pv: np.ndarray, Ts: float, f_hp: float) -> np.ndarray:
+def output_error(fit: Fit, pv: np.ndarray, Ts: float, f_hp: float,
+                 highpass_order: int = 2) -> np.ndarray:
     """High-passed (not low-passed) output error of a fitted hypothesis: the series its
-    noise model describes."""
+    noise model describes. Against a given model ``highpass_order`` 1 or 0 replaces the
+    comparison band's second-order high-pass by a first-order one or none
+    (:func:`.openloop.likelihood_highpass`); without a model the zero-phase band stays."""
     h = HYPOTHESES.get(fit.name, Nominal())
+    if highpass_order != 2 and fit.ctx.model_given:
+        X = h.regressors(fit.ctx, fit.p)
+        X = X if X.ndim == 2 else X[:, None]
+        return likelihood_highpass(np.asarray(pv, float) - X @ fit.beta, Ts, f_hp, highpass_order)
     band = band_of(fit.ctx.model_given)
     X = band(h.regressors(fit.ctx, fit.p), Ts, f_hp)
     X = X if X.ndim == 2 else X[:, None]
@@ -202,14 +209,16 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
              train: np.ndarray, val: np.ndarray, *, alpha: float,
              min_improvement: float, horizon: int = 1,
              cycle: CycleCheck | None = None,
-             own_resolution: frozenset[str] = OWN_RESOLUTION) -> Verdict:
+             own_resolution: frozenset[str] = OWN_RESOLUTION,
+             highpass_order: int = 2) -> Verdict:
     """Decide among fitted hypotheses (``fits["none"]`` is the nominal model) by
     prediction-error likelihood; see the module docstring. ``horizon`` (samples) adds
     the k-step-ahead test (the loop's time scale ``τ + θ``); ``cycle`` is the closed-loop
     cycle check of the identified valve (:mod:`.cycle`), reported under ``tests`` and
     passed to :func:`select`; ``own_resolution`` the hypotheses whose practical
-    significance is their own resolution (:func:`passes`)."""
-    oe = {name: output_error(ft, pv, Ts, f_hp) for name, ft in fits.items()}
+    significance is their own resolution (:func:`passes`); ``highpass_order`` the
+    high-pass of the output errors whitened (:func:`output_error`)."""
+    oe = {name: output_error(ft, pv, Ts, f_hp, highpass_order) for name, ft in fits.items()}
     best = min(fits, key=lambda k: fits[k].cost_train)
     noise = fit_noise_model(oe[best][train])
     e = {name: noise.whiten(r) for name, r in oe.items()}

@@ -265,6 +265,46 @@ def comparison_band(x: np.ndarray, Ts: float, f_c: float | None,
     return sosfilt(band_sos(Ts, f_c, f_lp), x - x[0], axis=0)
 
 
+#: high-pass orders of the output error the likelihood tests whiten against a given model
+#: (:func:`likelihood_highpass`): 2 the comparison band's own (the default), 1 a first-order
+#: high-pass at the same corner, 0 none
+LIKELIHOOD_HIGHPASS_ORDERS = (0, 1, 2)
+
+
+def likelihood_highpass(x: np.ndarray, Ts: float, f_c: float | None, order: int) -> np.ndarray:
+    """The output error the likelihood tests see against a given model, with a causal
+    Butterworth high-pass of ``order`` 1 at ``f_c`` Hz (``scipy.signal.sosfilt`` on the
+    deviation from the first sample), or, with ``order`` 0 or no ``f_c``, unfiltered
+    (mean removed). Order 2 is :func:`comparison_band` itself and is not built here.
+
+    Why it matters: a random-walk load, seen through the process, is an *integrated*
+    series; a high-pass of order ``n`` puts ``n`` zeros at zero frequency, so after the
+    second-order band one difference too many remains, a moving-average unit root that no
+    autoregressive noise model whitens (the prediction-error method's closed-loop
+    consistency needs the noise model to whiten the disturbance: Ljung, *System
+    Identification*, 1999, ch. 13.4; prefilter and noise model play one role, ch. 14.4).
+    With order 0 the integrated noise model (:func:`.noise.fit_noise_model`, chosen by
+    BIC) does the differencing once. ``experiments/likelihood_highpass.py`` measures the three.
+
+    A ramp (an integrated step) leaves a first-order high-pass as a constant, its slope
+    over the corner's angular frequency:
+
+    >>> import numpy as np
+    >>> y = likelihood_highpass(np.arange(300.0), 1.0, 0.05, 1)
+    >>> bool(abs(y[-1] - 1.0 / (2 * np.pi * 0.05)) < 0.05)
+    True
+    """
+    x = np.asarray(x, dtype=float)
+    if order not in (0, 1):
+        raise ValueError(f"likelihood_highpass: order must be 0 or 1, got {order}")
+    if order == 0 or f_c is None or f_c <= 0:
+        return x - x.mean(axis=0)
+    from scipy.signal import butter, sosfilt
+
+    sos = butter(1, min(f_c, 0.499 / Ts), btype="highpass", fs=1.0 / Ts, output="sos")
+    return sosfilt(sos, x - x[0], axis=0)
+
+
 def band_of(model_given: bool):
     """The band the diagnosis compares hypotheses in: :func:`comparison_band` (causal)
     against a given model, the zero-phase :func:`highpass` without one. The causal band
