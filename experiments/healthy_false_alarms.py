@@ -61,7 +61,8 @@ from stictionbench.reports.tables import to_markdown  # noqa: E402
 SETS = ("a", "b", "d", "f", "h")          # generator A's sets
 SETS_C = ("c", "e", "g", "i")             # generator C's
 VARIANTS_C = ("as_recorded", "exact_model", "no_load", "no_step", "no_drift", "quiet_pv", "pi_1s",
-              "quiet_pv+gate", "quiet_pv+no_load", "quiet_pv+exact_model")
+              "quiet_pv+gate", "quiet_pv+no_load", "quiet_pv+exact_model", "order0",
+              "no_drift+order0")
 DATA = ROOT / ".cache" / "blindgen"
 OUT = ROOT / "reports" / "concealed"
 VARIANTS = ("as_recorded", "no_load", "load_x0.3", "quiet_pv", "pi_1s", "op_average",
@@ -77,7 +78,7 @@ def _load_generator(folder: str):
 def remake_c(seed: int, level: int, variant: str, out: Path) -> dict:
     """Generator C's healthy recording re-made with ``variant``, its ingredients joined by
     ``+`` (its random streams are per purpose, so a change after the draw leaves every
-    other draw as it was; ``gate`` changes the diagnosis, not the recording)."""
+    other draw as it was; ``gate`` and ``order0`` change the diagnosis, not the recording)."""
     g = _load_generator("blind_generator_c")
     draw_loop, draw_conditions = g.draw_loop, g.draw_conditions
     parts = set(variant.split("+"))
@@ -111,15 +112,18 @@ def remake_c(seed: int, level: int, variant: str, out: Path) -> dict:
 
 def _diagnose_remade(d: Path, set_: str, name: str, variant: str):
     """The re-made recording in ``d`` diagnosed with its model YAML (with the linear-input
-    gate for a ``gate`` variant), and for ``as_recorded`` whether its CSV is the set's
+    gate for a ``gate`` variant, the likelihood tests' high-pass of order 0 for an
+    ``order0`` one), and for ``as_recorded`` whether its CSV is the set's
     byte for byte (else ``None``)."""
     same = None
     if variant == "as_recorded":
         same = ((d / f"{name}.csv").read_bytes()
                 == (DATA / f"set_{set_}" / f"{name}.csv").read_bytes())
     rec = read_recording(str(d / f"{name}.csv"), warn=False)
+    parts = variant.split("+")
     return same, diagnose(rec, load_model(d / f"{name}.model.yaml"),
-                          linear_input_gate="gate" in variant.split("+"))
+                          linear_input_gate="gate" in parts,
+                          test_highpass_order=0 if "order0" in parts else 2)
 
 
 def one_c(set_: str, name: str, seed: int, level: int, variant: str) -> dict:
@@ -323,7 +327,10 @@ def _reading_c(c: pd.DataFrame) -> str:
         "process is an integrated series, which the comparison band's second-order "
         "high-pass differences once too often for an autoregressive noise model to "
         "whiten; the likelihood tests' high-pass varied: "
-        "[likelihood_highpass.md](likelihood_highpass.md).",
+        "[likelihood_highpass.md](likelihood_highpass.md). Checked here by varying the "
+        f"drift under both: with the tests' high-pass of order 0 the false alarms go to "
+        f"{n('order0')}; without the drift they are {n('no_drift')} with order 2 and "
+        f"{n('no_drift+order0')} with order 0, so what order 0 removes is the drift's.",
         f"- With a tenth of the PV noise the tests' power turns the load into "
         f"{n('quiet_pv')} false alarms ({n('quiet_pv', 'deadband')} of them a dead band); "
         f"without the load then {n('quiet_pv+no_load')} ({n('quiet_pv+no_load', 'deadband')} "
@@ -353,8 +360,9 @@ def _generator_c_section(c: pd.DataFrame) -> list[str]:
         "half rule). `exact_model` makes the truth the YAML's model; `pi_1s`, `no_load` "
         "and `quiet_pv` as for generator A (the load: its random walk and step; "
         "`no_drift` removes the random walk only, `no_step` the step only); `+` "
-        "joins two changes, and `gate` diagnoses with the linear-input gate "
-        "([linear_input_gate.md](linear_input_gate.md)).", "",
+        "joins two changes, `gate` diagnoses with the linear-input gate "
+        "([linear_input_gate.md](linear_input_gate.md)) and `order0` with the likelihood "
+        "tests' high-pass of order 0.", "",
         to_markdown(_healthy_table(c, VARIANTS_C)), "",
         _reading_c(c), "",
         f"Dead-time error of the model (|true/model − 1|, median): "

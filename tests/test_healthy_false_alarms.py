@@ -1,4 +1,4 @@
-"""``experiments/healthy_false_alarms.py`` re-makes generator A's healthy recordings with one
+"""``experiments/healthy_false_alarms.py`` re-makes the generators' healthy recordings with one
 ingredient changed: the unchanged generator reproduces the set's recording, each variant
 changes what it names and nothing else, and the OP the process received is the mean of
 the controller's executions in each second."""
@@ -64,3 +64,18 @@ def test_as_recorded_reproduces_the_set(tmp_path):
     hfa.remake(SEED, LEVEL, "as_recorded", tmp_path, name)
     assert (tmp_path / f"{name}.csv").read_bytes() == \
         (hfa.DATA / "set_b" / f"{name}.csv").read_bytes()
+
+
+def test_generator_c_load_parts_compose(tmp_path):
+    # a level-2 healthy loop of generator C's set C with a load step (seed 7103): the
+    # drift and the step removed together are the load removed, byte for byte; each alone
+    # changes PV; order0 changes the diagnosis only, never the recording
+    csv = {}
+    for v in ("as_recorded", "no_drift", "no_step", "no_drift+no_step", "no_load", "order0"):
+        d = tmp_path / v.replace("+", "_")
+        d.mkdir()
+        hfa.remake_c(7103, 2, v, d)
+        csv[v] = next(d.glob("*.csv")).read_bytes()
+    assert csv["no_drift+no_step"] == csv["no_load"]
+    assert csv["order0"] == csv["as_recorded"]
+    assert len({csv[v] for v in ("as_recorded", "no_drift", "no_step", "no_load")}) == 4
