@@ -114,3 +114,19 @@ def test_summary_scores_and_counts():
     assert row["right only with order 0 / only order 2"].startswith("1 / 1")
     assert lh.part_of("c") == lh.PARTS[0] and lh.part_of("j") == lh.PARTS[1]
     assert lh.part_of("k") == lh.PARTS[2] and lh.part_of("holdout") == lh.PARTS[3]
+
+
+def test_drift_table_sets_recorded_beside_remade():
+    rec = pd.DataFrame([{"group": lh.DRIFT_SET, "level": 1, "class": c, "order_2": a,
+                         "order_0": b}
+                        for c, a, b in [("none", "stiction", "none"),
+                                        ("stiction", "stiction", "none")]])
+    remade = pd.DataFrame([{"level": 1, "class": c, "order_2": a, "order_0": b}
+                           for c, a, b in [("none", "none", "none"),
+                                           ("stiction", "stiction", "stiction")]])
+    t = lh.drift_table(rec, remade)
+    first = t[t.level == 1].set_index("set D")
+    assert first.loc["as recorded", "healthy called physics, order 2"].startswith("1/1")
+    assert first.loc["as recorded", "named right of 16, order 0"].startswith("8.0 [")
+    assert first.loc["without the load", "named right of 16, order 0"].startswith("16.0 [")
+    assert "as recorded +0.0 / " in lh.drift_reading(rec, remade).replace("-0.0", "+0.0")
