@@ -716,6 +716,9 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     Ind. Eng. Chem. Res. 44 (2005); Karra & Karim, Control Eng. Practice 17 (2009).
     """
     t0 = time.perf_counter()
+    if test_highpass_order not in LIKELIHOOD_HIGHPASS_ORDERS:
+        raise ValueError(f"test_highpass_order must be one of {LIKELIHOOD_HIGHPASS_ORDERS}, "
+                         f"got {test_highpass_order}")
     if slip_jump_bootstrap:
         from .slip_bootstrap import check_request
 
@@ -731,9 +734,6 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     # against a given model the NRMSE gate grows where the band holds few independent
     # validation samples (evidence.scaled_gate: slow loops sampled fast)
     gate = scaled_gate(min_improvement, dof) if cmp.ctx.model_given else min_improvement
-    if test_highpass_order not in LIKELIHOOD_HIGHPASS_ORDERS:
-        raise ValueError(f"test_highpass_order must be one of {LIKELIHOOD_HIGHPASS_ORDERS}, "
-                         f"got {test_highpass_order}")
     verdict = validate(cmp, fits, ham, alpha=alpha, min_improvement=gate,
                        highpass_order=test_highpass_order)
     look = second_look(cmp, verdict, alpha=alpha, min_improvement=min_improvement,
