@@ -79,3 +79,18 @@ def test_generator_c_load_parts_compose(tmp_path):
     assert csv["no_drift+no_step"] == csv["no_load"]
     assert csv["order0"] == csv["as_recorded"]
     assert len({csv[v] for v in ("as_recorded", "no_drift", "no_step", "no_load")}) == 4
+
+
+def test_generator_a_variants_compose(tmp_path):
+    # order0 changes the diagnosis only; a joined variant is its recording's ingredients
+    csv = {}
+    for v in ("no_load", "no_load+order0", "pi_1s+no_load", "pi_1s"):
+        d = tmp_path / v.replace("+", "_")
+        d.mkdir()
+        info = hfa.remake(SEED, LEVEL, v, d, "r")
+        csv[v] = (_read(d), info)
+    assert csv["no_load+order0"][0].equals(csv["no_load"][0])
+    both = csv["pi_1s+no_load"]
+    assert both[1]["controller_period"] == 1.0
+    assert not both[0].PV.equals(csv["pi_1s"][0].PV)
+    assert not both[0].PV.equals(csv["no_load"][0].PV)
