@@ -47,6 +47,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -133,6 +134,67 @@ def drift_table(df: pd.DataFrame, drift: pd.DataFrame) -> pd.DataFrame:
                 f"{g} / {lo} (p = {mcnemar_p(g, lo):.2g})"
             rows.append(row)
     return pd.DataFrame(rows)
+
+
+def effect_tertiles(df: pd.DataFrame) -> pd.DataFrame:
+    """The independent sets' physics recordings with their effect size's tertile (1 small
+    … 3 large) within their generator and class, the effect read from the generator's
+    truth column as ``independent_set`` reads it (``EFFECT``; a ratio as ``|ln|``)."""
+    from independent_set import EFFECT, RATIOS
+
+    truth = pd.concat([lig.set_truth(s) for s in sorted(set(df.group) - {"holdout"})])
+    x = df.merge(truth.drop(columns=["class", "level", "predicted"], errors="ignore"),
+                 on=["group", "name"])
+    x = x[x["class"] != "none"].assign(generator=x.group.map(lig.GENERATOR))
+    parts = []
+    for (_, cls), g in x.groupby(["generator", "class"]):
+        col = next((c for c in EFFECT.get(cls, ()) if c in g and g[c].notna().any()), None)
+        if col is None:
+            continue
+        e = g[col].astype(float)
+        e = e.map(lambda v: abs(np.log(v))) if col in RATIOS else e.abs()
+        g = g.assign(effect=e).dropna(subset=["effect"])
+        g["tertile"] = pd.qcut(g.effect.rank(method="first"), 3, labels=[1, 2, 3]).astype(int)
+        parts.append(g)
+    return pd.concat(parts, ignore_index=True)
+
+
+def detectability_figure(df: pd.DataFrame, path: Path) -> pd.DataFrame:
+    """Named rate against the effect's tertile, per class, under orders 2 and 0 (the
+    independent sets pooled; Wilson 95 % intervals); returns the plotted table."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from stictionbench.rates import wilson
+
+    x = effect_tertiles(df)
+    rows = []
+    for (cls, t), g in x.groupby(["class", "tertile"]):
+        for o in (2, 0):
+            k = int((g[f"order_{o}"] == g["class"]).sum())
+            lo, hi = wilson(k, len(g))
+            rows.append({"class": cls, "tertile": t, "order": o, "named": k, "n": len(g),
+                         "rate": k / len(g), "lo": lo, "hi": hi})
+    tab = pd.DataFrame(rows)
+    classes = sorted(tab["class"].unique())
+    fig, axes = plt.subplots(1, len(classes), figsize=(2.3 * len(classes), 3.2), sharey=True)
+    for ax, cls in zip(np.atleast_1d(axes), classes, strict=True):
+        for o, dx in ((2, -0.06), (0, 0.06)):
+            t = tab[(tab["class"] == cls) & (tab.order == o)]
+            ax.errorbar(t.tertile + dx, 100 * t.rate, yerr=[100 * (t.rate - t.lo),
+                                                            100 * (t.hi - t.rate)],
+                        marker="o", capsize=2, label=f"order {o}")
+        ax.set(title=cls.replace("_", " "), xticks=[1, 2, 3],
+               xticklabels=["small", "mid", "large"], xlabel="effect (tertile)")
+    np.atleast_1d(axes)[0].set_ylabel("named right (%)")
+    np.atleast_1d(axes)[0].legend(fontsize=7)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100, format="png")
+    plt.close(fig)
+    return tab
 
 
 def drift_reading(df: pd.DataFrame, drift: pd.DataFrame) -> str:
@@ -234,7 +296,25 @@ def figure(df: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
-def report(df: pd.DataFrame, drift: pd.DataFrame) -> str:
+def _detect_lines(detect: pd.DataFrame) -> list[str]:
+    small = detect[detect.tertile == 1].groupby("order")[["named", "n"]].sum()
+    large = detect[detect.tertile == 3].groupby("order")[["named", "n"]].sum()
+
+    def r(t: pd.DataFrame, o: int) -> str:
+        return rate_text(int(t.loc[o, "named"]), int(t.loc[o, "n"]))
+
+    return ["## Against the effect's size", "",
+            "The independent sets' physics recordings (holdout block left out: its truth "
+            "has no effect column here), each class split into thirds of the effect its "
+            "generator drew (within generator and class; `independent_set`'s effect "
+            "columns, a ratio as |ln|):", "",
+            "![named rate against effect size, orders 2 and 0]"
+            "(likelihood_highpass_detectability.png)", "",
+            f"- Smallest third, all classes: order 2 {r(small, 2)}, order 0 {r(small, 0)}; "
+            f"largest third: {r(large, 2)}, {r(large, 0)}.", ""]
+
+
+def report(df: pd.DataFrame, drift: pd.DataFrame, detect: pd.DataFrame | None = None) -> str:
     oos = df[df.part != PARTS[0]]
     h_all = df[df["class"] == "none"]
 
@@ -273,6 +353,7 @@ def report(df: pd.DataFrame, drift: pd.DataFrame) -> str:
         "ratio. Checked by removing the load (everything else as drawn):", "",
         to_markdown(drift_table(df, drift)), "",
         drift_reading(df, drift), "",
+        *(_detect_lines(detect) if detect is not None else []),
         "## Named right per class", "",
         to_markdown(by_class(df)), "",
     ]
@@ -297,7 +378,8 @@ def main(argv: list[str] | None = None) -> int:
         with atomic_path(drift_csv) as tmp:
             drift.to_csv(tmp, index=False)
     figure(df, lig.OUT / "likelihood_highpass.png")
-    publish(df, report(df, drift), lig.OUT / "likelihood_highpass")
+    detect = detectability_figure(df, lig.OUT / "likelihood_highpass_detectability.png")
+    publish(df, report(df, drift, detect), lig.OUT / "likelihood_highpass")
     return 0
 
 

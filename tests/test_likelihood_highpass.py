@@ -130,3 +130,16 @@ def test_drift_table_sets_recorded_beside_remade():
     assert first.loc["as recorded", "named right of 16, order 0"].startswith("8.0 [")
     assert first.loc["without the load", "named right of 16, order 0"].startswith("16.0 [")
     assert "as recorded +0.0 / " in lh.drift_reading(rec, remade).replace("-0.0", "+0.0")
+
+
+@pytest.mark.skipif(not (lh.lig.DATA / "set_d" / "truth.csv").exists(),
+                    reason="independent set D is not generated (make independent)")
+def test_effect_tertiles_split_each_class_in_thirds():
+    t = lh.lig.set_truth("d")
+    df = t[["group", "name", "class", "level"]].assign(order_2="none", order_0="none")
+    x = lh.effect_tertiles(df)
+    assert set(x.tertile) == {1, 2, 3} and "none" not in set(x["class"])
+    for _, g in x.groupby("class"):
+        counts = g.tertile.value_counts()
+        assert counts.max() - counts.min() <= 1
+        assert g.groupby("tertile").effect.max().is_monotonic_increasing
