@@ -105,7 +105,7 @@ concealed: venv
 # changed at a time (healthy_false_alarms), and the opt-in linear-input gate against the
 # default on them, fresh sets J and K and a fresh holdout block (linear_input_gate), and
 # the likelihood tests' high-pass order varied on all of them and another fresh holdout
-# block (likelihood_highpass; about 100 minutes on 2 cores in all)
+# block (likelihood_highpass; about 110 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
