@@ -58,6 +58,7 @@ import holdout_family as hf  # noqa: E402
 import linear_input_gate as lig  # noqa: E402
 from fresh_recordings import CLASSES, publish, recording, run  # noqa: E402
 
+from stictionbench import rates  # noqa: E402
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.io import atomic_path, read_recording  # noqa: E402
 from stictionbench.rates import balanced_text, mcnemar_p, rate_text  # noqa: E402
@@ -152,7 +153,7 @@ def effect_tertiles(df: pd.DataFrame) -> pd.DataFrame:
         if col is None:
             continue
         e = g[col].astype(float)
-        e = e.map(lambda v: abs(np.log(v))) if col in RATIOS else e.abs()
+        e = np.abs(np.log(e)) if col in RATIOS else e.abs()
         g = g.assign(effect=e).dropna(subset=["effect"])
         g["tertile"] = pd.qcut(g.effect.rank(method="first"), 3, labels=[1, 2, 3]).astype(int)
         parts.append(g)
@@ -167,14 +168,12 @@ def detectability_figure(df: pd.DataFrame, path: Path) -> pd.DataFrame:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from stictionbench.rates import wilson
-
     x = effect_tertiles(df)
     rows = []
     for (cls, t), g in x.groupby(["class", "tertile"]):
         for o in (2, 0):
             k = int((g[f"order_{o}"] == g["class"]).sum())
-            lo, hi = wilson(k, len(g))
+            lo, hi = rates.wilson(k, len(g))
             rows.append({"class": cls, "tertile": t, "order": o, "named": k, "n": len(g),
                          "rate": k / len(g), "lo": lo, "hi": hi})
     tab = pd.DataFrame(rows)
@@ -199,12 +198,10 @@ def detectability_figure(df: pd.DataFrame, path: Path) -> pd.DataFrame:
 
 def drift_reading(df: pd.DataFrame, drift: pd.DataFrame) -> str:
     """Order 0's score minus order 2's on set D, per level, with and without the load."""
-    from stictionbench.rates import balanced_score
-
     def gap(x: pd.DataFrame, lv: int) -> str:
         y = x[x.level == lv]
-        d = (balanced_score(y.order_0 == y["class"], y["class"])[0]
-             - balanced_score(y.order_2 == y["class"], y["class"])[0])
+        d = (rates.balanced_score(y.order_0 == y["class"], y["class"])[0]
+             - rates.balanced_score(y.order_2 == y["class"], y["class"])[0])
         return f"{d:+.1f}"
 
     rec = df[df.group == DRIFT_SET]
@@ -264,8 +261,6 @@ def figure(df: pd.DataFrame, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from stictionbench.rates import balanced_score, wilson
-
     fig, ax = plt.subplots(1, 3, figsize=(13, 4))
     for part in PARTS:
         x = df[df.part == part]
@@ -273,13 +268,13 @@ def figure(df: pd.DataFrame, path: Path) -> None:
             continue
         h = x[x["class"] == "none"]
         fa = [(h[f"order_{o}"] != "none").mean() * 100 for o in ORDERS]
-        ci = [wilson(int((h[f"order_{o}"] != "none").sum()), len(h)) for o in ORDERS]
+        ci = [rates.wilson(int((h[f"order_{o}"] != "none").sum()), len(h)) for o in ORDERS]
         ax[0].errorbar(ORDERS, fa, yerr=[[f - 100 * c[0] for f, c in zip(fa, ci, strict=True)],
                                          [100 * c[1] - f for f, c in zip(fa, ci, strict=True)]],
                        marker="o", capsize=3, label=part)
         for k, lv in enumerate((1, 2)):
             y = x[x.level == lv]
-            s = [balanced_score(y[f"order_{o}"] == y["class"], y["class"]) for o in ORDERS]
+            s = [rates.balanced_score(y[f"order_{o}"] == y["class"], y["class"]) for o in ORDERS]
             ax[1 + k].errorbar(ORDERS, [v[0] for v in s],
                                yerr=[[v[0] - v[1] for v in s], [v[2] - v[0] for v in s]],
                                marker="o", capsize=3, label=part)
