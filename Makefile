@@ -105,7 +105,9 @@ concealed: venv
 # changed at a time (healthy_false_alarms), and the opt-in linear-input gate against the
 # default on them, fresh sets J and K and a fresh holdout block (linear_input_gate), and
 # the likelihood tests' high-pass order varied on all of them and another fresh holdout
-# block (likelihood_highpass; about 110 minutes on 2 cores in all)
+# block (likelihood_highpass), and orders 2 and 0 compared at a matched false-alarm rate
+# over the decision's thresholds, with the drift varied (size_power; about 140 minutes on
+# 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -126,6 +128,8 @@ independent: venv
 	$(BIN)/python experiments/healthy_false_alarms.py --jobs 2
 	$(BIN)/python experiments/linear_input_gate.py --jobs 2
 	$(BIN)/python experiments/likelihood_highpass.py --jobs 2
+	rm -rf .cache/size_power
+	$(BIN)/python experiments/size_power.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

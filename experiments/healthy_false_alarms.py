@@ -76,10 +76,11 @@ def _load_generator(folder: str):
     return generator_module(folder)
 
 
-def remake_c(seed: int, level: int, variant: str, out: Path) -> dict:
-    """Generator C's healthy recording re-made with ``variant``, its ingredients joined by
-    ``+`` (its random streams are per purpose, so a change after the draw leaves every
-    other draw as it was; ``gate`` and ``order0`` change the diagnosis, not the recording)."""
+def remake_c(seed: int, level: int, variant: str, out: Path, cls: str = "none") -> dict:
+    """Generator C's recording of class ``cls`` (healthy by default) re-made with
+    ``variant``, its ingredients joined by ``+`` (its random streams are per purpose, so a
+    change after the draw leaves every other draw as it was; ``gate`` and ``order0``
+    change the diagnosis, not the recording)."""
     g = _load_generator("blind_generator_c")
     draw_loop, draw_conditions = g.draw_loop, g.draw_conditions
     parts = set(variant.split("+"))
@@ -104,7 +105,7 @@ def remake_c(seed: int, level: int, variant: str, out: Path) -> dict:
         return c
 
     g.draw_loop, g.draw_conditions = loop, conditions
-    res = g.make_recording(seed, level, "none")
+    res = g.make_recording(seed, level, cls)
     g.write_recording(str(out), res)
     lp = res["loop"]
     return {"name": res["name"], "controller_period": lp["tc"], "K": lp["K"],

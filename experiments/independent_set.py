@@ -61,14 +61,16 @@ EFFECT = {"stiction": ("S", "stiction_S"), "deadband": ("deadband",),
 RATIOS = ("dead_time_ratio", "dead_time_true_over_model", "valve_gain_ratio")
 
 
-def diagnose_one(data: str, name: str) -> dict:
-    """Diagnose ``DATA/NAME.csv`` with ``DATA/NAME.model.yaml`` as the command does; the
-    verdict, the warnings and the stored evidence :func:`concealed.miss_reason` reads and
-    :func:`concealed.decide` re-decides from."""
+def diagnose_one(data: str, name: str, test_highpass_order: int = 2) -> dict:
+    """Diagnose ``DATA/NAME.csv`` with ``DATA/NAME.model.yaml`` as the command does (with
+    ``--test-highpass-order``, default the command's); the verdict, the warnings and the
+    stored evidence :func:`concealed.miss_reason` reads and :func:`concealed.decide`
+    re-decides from."""
     t0 = time.perf_counter()
     d = Path(data)
     rec = read_recording(str(d / f"{name}.csv"), warn=False)
-    res = diagnose(rec, load_model(d / f"{name}.model.yaml"))
+    res = diagnose(rec, load_model(d / f"{name}.model.yaml"),
+                   test_highpass_order=test_highpass_order)
     row = {"name": name, "predicted": res.missing_physics,
            "band_dof": res.details.get("band_dof"),
            "op_held": bool(res.tests["op_held_at_limit"]["held"]),

@@ -94,3 +94,20 @@ def test_generator_a_variants_compose(tmp_path):
     assert both[1]["controller_period"] == 1.0
     assert not both[0].PV.equals(csv["pi_1s"][0].PV)
     assert not both[0].PV.equals(csv["no_load"][0].PV)
+
+
+@pytest.mark.skipif(not (hfa.DATA / "set_c" / "truth.csv").exists(),
+                    reason="generator C's set C is not generated (make independent)")
+def test_generator_c_faulty_class_remade(tmp_path):
+    # a faulty recording of set C re-made unchanged is the set's, byte for byte; without
+    # the drift its PV differs and its OP too (the loop answers a different load)
+    truth = pd.read_csv(hfa.DATA / "set_c" / "truth.csv")
+    row = truth[truth["class"] == "stiction"].iloc[0]
+    for v in ("as_recorded", "no_drift"):
+        d = tmp_path / v
+        d.mkdir()
+        assert hfa.remake_c(int(row.seed), int(row.level), v, d, "stiction")["name"] \
+            == row["name"]
+    recorded = (hfa.DATA / "set_c" / f"{row['name']}.csv").read_bytes()
+    assert (tmp_path / "as_recorded" / f"{row['name']}.csv").read_bytes() == recorded
+    assert (tmp_path / "no_drift" / f"{row['name']}.csv").read_bytes() != recorded
