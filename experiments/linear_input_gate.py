@@ -88,8 +88,11 @@ def set_truth(s: str) -> pd.DataFrame:
     return t
 
 
-def ensure_fresh_sets() -> None:
-    for s, (gen, seed) in FRESH.items():
+def ensure_fresh_sets(seeds: dict[str, tuple[str, int]] | None = None) -> None:
+    """Make every set of ``seeds`` (set letter -> generator folder and first seed; the
+    fresh sets :data:`FRESH` by default) that is missing, 12 recordings per class and
+    level, as ``make independent`` makes them."""
+    for s, (gen, seed) in (FRESH if seeds is None else seeds).items():
         if not (DATA / f"set_{s}" / "truth.csv").exists():
             subprocess.run([sys.executable, str(ROOT / "experiments" / gen / "generate.py"),
                             "--out", str(DATA / f"set_{s}"), "--per-class", "12",

@@ -91,18 +91,6 @@ SEEDS = {"a": ("blind_generator", 1000), "b": ("blind_generator", 5000),
          "i": ("blind_generator_c", 19000), **lig.FRESH}
 
 
-def ensure_sets() -> None:
-    """Make every missing set with its generator and seeds (as ``make independent``)."""
-    import subprocess
-
-    for s, (gen, seed) in SEEDS.items():
-        if not (lig.DATA / f"set_{s}" / "truth.csv").exists():
-            subprocess.run([sys.executable, str(ROOT / "experiments" / gen / "generate.py"),
-                            "--out", str(lig.DATA / f"set_{s}"), "--per-class", "12",
-                            "--first-seed", str(seed)], check=True,
-                           stdout=subprocess.DEVNULL)
-
-
 def _one(set_: str, name: str, order: int) -> dict:
     row = diagnose_one(str(lig.DATA / f"set_{set_}"), name, test_highpass_order=order)
     return {"group": set_, "order": order} | row
@@ -462,7 +450,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     if not args.reuse:
-        ensure_sets()
+        lig.ensure_fresh_sets(SEEDS)
     df = rows(args.jobs, args.reuse)
     varied = varied_rows(args.jobs, args.reuse)
     mismatches = check_defaults(df)

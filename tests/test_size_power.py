@@ -50,3 +50,14 @@ def test_operating_points_reproduce_the_stored_verdicts(monkeypatch):
     # a gate no improvement passes: the main band names nothing, so only what the
     # checks after the comparison name remains and it cannot name more
     assert pts.loc[1e9].physics_named <= shipped.physics_named
+
+
+def test_seeds_are_make_independents():
+    # the sets this experiment makes when missing are the ones `make independent` makes
+    import re
+
+    text = (ROOT / "Makefile").read_text()
+    made = {s: (g, int(n)) for s, g, n in re.findall(r"\b([a-k]):(blind_generator\w*):(\d+)",
+                                                     text)}
+    assert len(made) == 9
+    assert {s: sp.SEEDS[s] for s in made} == made
