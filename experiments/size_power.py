@@ -440,6 +440,14 @@ def findings(points: pd.DataFrame, cal: pd.DataFrame) -> list[str]:
                    f"{ranked[0]} names the most physics ("
                    + ", ".join(f"order {o} {100 * p[o]:.1f} %" for o in ranked)
                    + "; the best setting of each on the same recordings).")
+    for o in ORDERS:
+        t = points[(points.order == o) & (points.gate == cc.DEFAULTS[1])
+                   & (points.alpha == min(ALPHAS))]
+        out.append(f"- Order {o} at the shipped gate ({cc.DEFAULTS[1]:g}) and the grid's "
+                   f"smallest alpha ({min(ALPHAS):g}): healthy loops called physics "
+                   + "; ".join(f"generator {r.generator} "
+                               f"{rate_text(int(r.healthy_called), int(r.healthy))}"
+                               for r in t.itertuples()) + ".")
     oos = cal[cal["calibrated on"] != "shipped setting"]
     for o in ORDERS:
         x = oos[oos.order == o]
