@@ -9,6 +9,7 @@ gives the diagnosis.
 
 from __future__ import annotations
 
+import argparse
 import sys
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -41,6 +42,18 @@ def recording(family: str, cls: str, level: int,
         c, sig = cf.make_recording(family, cls, level, seed)
     rec = Recording.from_arrays(sig["t"], sig["PV"], sig["OP"], SP=sig["SP"])
     return c, cf.nominal_model(c), rec
+
+
+def jobs_reuse_args(doc: str, reuse_help: str,
+                    argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line of an experiment that diagnoses in parallel and can re-make its
+    report from what an earlier run stored: ``--jobs`` (workers, default 2) and
+    ``--reuse`` (``reuse_help`` says what it keeps); the description is ``doc``'s first
+    line."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--reuse", action="store_true", help=reuse_help)
+    return ap.parse_args(argv)
 
 
 def run(fn: Callable[..., dict], todo: list[tuple], jobs: int) -> pd.DataFrame:

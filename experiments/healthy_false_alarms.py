@@ -37,7 +37,6 @@ Output: ``reports/concealed/healthy_false_alarms.{md,csv}``.
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import tempfile
@@ -50,7 +49,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import generator_module, publish, run  # noqa: E402
+from fresh_recordings import generator_module, jobs_reuse_args, publish, run  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.openloop import highpass  # noqa: E402
@@ -509,11 +508,8 @@ def job(generator: str, *case) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--reuse", action="store_true",
-                    help="keep the rows of an existing CSV and run only the missing ones")
-    args = ap.parse_args(argv)
+    args = jobs_reuse_args(
+        __doc__, "keep the rows of an existing CSV and run only the missing ones", argv)
     todo, stored = [], []
     for s in SETS:
         truth = pd.read_csv(DATA / f"set_{s}" / "truth.csv")

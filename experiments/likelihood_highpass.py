@@ -41,7 +41,6 @@ Output: ``reports/concealed/likelihood_highpass.{md,csv,png}`` and
 
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 import time
@@ -56,7 +55,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import holdout_family as hf  # noqa: E402
 import linear_input_gate as lig  # noqa: E402
-from fresh_recordings import CLASSES, publish, recording, run  # noqa: E402
+from fresh_recordings import CLASSES, jobs_reuse_args, publish, recording, run  # noqa: E402
 
 from stictionbench import rates  # noqa: E402
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
@@ -356,11 +355,7 @@ def report(df: pd.DataFrame, drift: pd.DataFrame, detect: pd.DataFrame | None = 
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--reuse", action="store_true",
-                    help="keep the existing CSVs' rows; run only what is missing")
-    args = ap.parse_args(argv)
+    args = jobs_reuse_args(__doc__, "keep the existing CSVs' rows; run only what is missing", argv)
     csv, drift_csv = lig.OUT / "likelihood_highpass.csv", lig.OUT / "likelihood_highpass_drift.csv"
     df = pd.read_csv(csv) if args.reuse and csv.exists() else _run_orders(args.jobs)
     if args.reuse and drift_csv.exists():

@@ -63,7 +63,6 @@ order and generator). ``--reuse`` re-makes the report from the cached diagnoses 
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import sys
 import time
@@ -77,7 +76,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import concealed as cc  # noqa: E402
 import linear_input_gate as lig  # noqa: E402
-from fresh_recordings import publish, run  # noqa: E402
+from fresh_recordings import jobs_reuse_args, publish, run  # noqa: E402
 from independent_set import diagnose_one  # noqa: E402
 
 from stictionbench import rates  # noqa: E402
@@ -472,11 +471,7 @@ def findings(points: pd.DataFrame, cal: pd.DataFrame) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--reuse", action="store_true",
-                    help="re-make the report from the cached diagnoses only")
-    args = ap.parse_args(argv)
+    args = jobs_reuse_args(__doc__, "re-make the report from the cached diagnoses only", argv)
     t0 = time.perf_counter()
     if not args.reuse:
         lig.ensure_fresh_sets(SEEDS)

@@ -61,3 +61,14 @@ def test_seeds_are_make_independents():
                                                      text)}
     assert len(made) == 9
     assert {s: sp.SEEDS[s] for s in made} == made
+
+
+def test_command_line_of_the_experiments():
+    from fresh_recordings import jobs_reuse_args
+
+    a = jobs_reuse_args(sp.__doc__, "re-make only", [])
+    assert (a.jobs, a.reuse) == (2, False)
+    a = jobs_reuse_args(sp.__doc__, "re-make only", ["--jobs", "3", "--reuse"])
+    assert (a.jobs, a.reuse) == (3, True)
+    with pytest.raises(SystemExit):
+        jobs_reuse_args(sp.__doc__, "re-make only", ["--jobs", "two"])
