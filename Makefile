@@ -106,8 +106,9 @@ concealed: venv
 # default on them, fresh sets J and K and a fresh holdout block (linear_input_gate), and
 # the likelihood tests' high-pass order varied on all of them and another fresh holdout
 # block (likelihood_highpass), and orders 2 and 0 compared at a matched false-alarm rate
-# over the decision's thresholds, with the drift varied (size_power; about 140 minutes on
-# 2 cores in all)
+# over the decision's thresholds, with the drift varied (size_power), and every
+# diagnosis's minimum detectable effects checked against the sets' truth, with the noise
+# varied (detectable_effects; about 150 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -130,6 +131,8 @@ independent: venv
 	$(BIN)/python experiments/likelihood_highpass.py --jobs 2
 	rm -rf .cache/size_power
 	$(BIN)/python experiments/size_power.py --jobs 2
+	rm -rf .cache/detectable_effects
+	$(BIN)/python experiments/detectable_effects.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

@@ -44,6 +44,7 @@ from ..errors import InputError
 from ..op_range import infer_op_range
 from ..recording import Recording
 from .cycle import CycleCheck, check_cycle
+from .detectability import minimum_detectable
 from .evidence import (
     ALPHA,
     MIN_IMPROVEMENT,
@@ -60,7 +61,7 @@ from .evidence import validate as _validate
 from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
 from .gain import GainTest, setpoint_gain
 from .hammerstein import HP_FACTOR, HammersteinResult, fit_hammerstein
-from .hypotheses import HYPOTHESES, Context, Nominal, lowpass_corner
+from .hypotheses import HYPOTHESES, NOMINAL_ALIGNMENT, Context, Nominal, lowpass_corner
 from .line import line_confinement
 from .linear_input import linear_input_test
 from .locate import (
@@ -271,7 +272,7 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
     # controller faster than the historian) moves the apparent dead time by up to a
     # sample: the nominal model is aligned on a quarter-sample grid within ±1 sample,
     # the hypotheses within half a sample of that alignment
-    align = [s * Ts for s in np.arange(-1.0, 1.01, 0.25) if theta + s * Ts >= 0]
+    align = [s * Ts for s in NOMINAL_ALIGNMENT if theta + s * Ts >= 0]
     nominal = _fit_aligned(prob, Nominal(), align)
     f_wide = (_band_for_residual_line(ctx, nominal, burn, lp_factor)
               if ctx.model_given else None)
@@ -654,7 +655,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              lp_factor: float = 5.0, hypotheses: tuple[str, ...] | None = None,
              pem: bool = True, op_range: tuple[float, float] | None = None,
              slip_jump_bootstrap: int = 0, bootstrap_seed: int = 0,
-             linear_input_gate: bool = False, test_highpass_order: int = 2) -> Diagnosis:
+             linear_input_gate: bool = False, test_highpass_order: int = 2,
+             detectability: bool = True) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -704,6 +706,11 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         integrated noise model then doing the differencing. Lower orders call fewer
         healthy loops faulty and name less physics
         (``reports/concealed/likelihood_highpass.md`` measures both).
+    detectability : bool
+        Against a given model, also give ``details["minimum_detectable"]``: the smallest
+        dead-time change, sensor lag, dead band and stiction ``S`` this record's tests
+        would have seen (:mod:`.detectability`; ``reports/concealed/
+        detectable_effects.md`` checks it against known truth). Default on.
 
     Returns
     -------
@@ -736,6 +743,13 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     gate = scaled_gate(min_improvement, dof) if cmp.ctx.model_given else min_improvement
     verdict = validate(cmp, fits, ham, alpha=alpha, min_improvement=gate,
                        highpass_order=test_highpass_order)
+    detectable = None
+    if detectability and cmp.ctx.model_given:
+        # what the tests just run would have seen on this record (.detectability)
+        detectable = minimum_detectable(
+            cmp.ctx, cmp.prob.band, cmp.prob.f_hp, cmp.prob.f_lp, fits["none"], verdict.noise,
+            cmp.prob.val, alpha=alpha, gate=gate, own_resolution=verdict.own_resolution,
+            highpass_order=test_highpass_order)
     look = second_look(cmp, verdict, alpha=alpha, min_improvement=min_improvement,
                        lp_factor=lp_factor, highpass_order=test_highpass_order)
     if (look is None or not look.named) and cmp.ctx.model_given and cmp.pem:
@@ -768,6 +782,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     d.details["linear_input_gate"] = bool(linear_input_gate and cmp.ctx.model_given)
     d.details["test_highpass_order"] = test_highpass_order if cmp.ctx.model_given else None
     d.details["nrmse_gate"] = gate
+    if detectable is not None:
+        d.details["minimum_detectable"] = detectable
     if (why := record_warning(dof)) is not None:
         d.details["record_warning"] = why
     d.details["seconds"] = time.perf_counter() - t0

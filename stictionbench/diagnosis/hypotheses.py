@@ -58,6 +58,13 @@ def lowpass_corner(Ts: float, tau: float, lp_factor: float = 5.0,
     return min(0.4 / Ts, f)
 
 
+#: the nominal model's alignments, in sample times added to its dead time, that
+#: :func:`.diagnose.compare` tries: the recording convention (OP stored before or after the
+#: controller executed, a controller faster than the historian) moves the apparent dead
+#: time by up to a sample
+NOMINAL_ALIGNMENT = tuple(float(a) for a in np.arange(-1.0, 1.01, 0.25))
+
+
 @dataclass
 class Context:
     """What every hypothesis needs: the recorded signals and the nominal dynamics."""

@@ -179,6 +179,29 @@ def _gate_lines(d: Diagnosis) -> list[str]:
             f"{why}."]
 
 
+#: the effects of :mod:`.detectability` in words, with their units' suffix
+DETECTABLE_WORDS = {"dead_time_longer": ("dead time longer by", " s"),
+                    "dead_time_shorter": ("dead time shorter by", " s"),
+                    "sensor_lag": ("sensor lag", " s"), "deadband": ("dead band", ""),
+                    "stiction_S": ("stiction S (J = S/2)", "")}
+
+
+def _detectable_lines(d: Diagnosis) -> list[str]:
+    """The smallest effects the record's tests would have seen (:mod:`.detectability`)."""
+    m = d.details.get("minimum_detectable")
+    if not m:
+        return []
+    parts = []
+    for key, e in m["effects"].items():
+        what, unit = DETECTABLE_WORDS[key]
+        size = (f"{e['minimum']:.3g}{unit}" if e["minimum"] is not None
+                else f"none up to {e['searched_up_to']:.3g}{unit}")
+        parts.append(f"{what} {size} ({' and '.join(e['limited_by'])})")
+    return [f"- Smallest effects this record's tests would have seen (power "
+            f"{m['power']:.0%} at alpha {m['alpha']:g}; OP units for valves; in brackets "
+            f"what a smaller one fails): " + "; ".join(parts) + "."]
+
+
 def _residual_lines(d: Diagnosis) -> list[str]:
     """Ljung's residual analysis of the chosen model, in words."""
     w, u = d.tests.get("whiteness"), d.tests.get("independence_from_op")
@@ -241,6 +264,7 @@ def summary_markdown(d: Diagnosis) -> str:
         *_line_lines(d),
         *_held_lines(d),
         *_residual_lines(d),
+        *_detectable_lines(d),
         "",
         "| physics | score (0 = best) | validation NRMSE | improvement | p-value | chosen |",
         "|---|---|---|---|---|---|",
