@@ -40,7 +40,9 @@ that clears the gate (a geometric scan over the hypothesis's search range, then 
 bisection); ``None`` when none in that range does. ``limited_by`` says what a slightly
 smaller effect fails: the power (a longer or quieter record would show it) or the gate
 (which a longer record does not lower: the NRMSE gate asks the effect for a share of
-the residual, not a number of samples). It assumes the fitted parameters land
+the residual, not a number of samples), or the resolution (a dead time within one
+sample of the model's is never named); ``range`` when the smallest effect scanned
+already passes. It assumes the fitted parameters land
 near the true ones and that no rival hypothesis explains the effect better: it bounds the
 *test*, not the naming (a dead time the test sees may still be named a sensor lag).
 ``experiments/detectable_effects.py`` checks it against the truth of the independent
@@ -202,7 +204,7 @@ def minimum_detectable(ctx: Context, band, f_hp: float | None, f_lp: float | Non
         rng = _range(key, ctx)
         if rng is None or rng[1] <= rng[0]:
             continue
-        found, prev, why = None, None, ["power", "gate"]
+        found, prev, why = None, None, ["range"]
         for s in np.geomspace(rng[0], rng[1], SCAN_POINTS):
             w = failing(key, name, float(s))
             if not w:
@@ -222,6 +224,7 @@ def minimum_detectable(ctx: Context, band, f_hp: float | None, f_lp: float | Non
         effects[key] = {"minimum": found, "unit": unit, "searched_up_to": float(rng[1]),
                         # what a slightly smaller effect fails: "power" (a longer or
                         # quieter record would show it), "gate" (the NRMSE gate, which
-                        # record length does not lower), "resolution" (one sample)
+                        # record length does not lower), "resolution" (one sample);
+                        # "range": the smallest effect scanned already passes
                         "limited_by": why}
     return {"power": power, "alpha": alpha, "gate": gate, "effects": effects}
