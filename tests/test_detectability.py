@@ -83,5 +83,8 @@ def test_the_command_writes_it_in_the_json(tmp_path):
     assert main(["diagnose", str(csv), "--model", str(model), "--json", str(out)]) == 0
     eff = json.loads(out.read_text())["details"]["minimum_detectable"]["effects"]
     assert set(eff) == KEYS
-    lo = eff["dead_time_longer"]["minimum"]
-    assert lo is None or lo > 1.0  # more than one sample: a smaller change is never named
+    dt = eff["dead_time_longer"]
+    # counted from the delay the record shows, within a sample of the model's 10 s
+    assert dt["model_dead_time_s"] == 10.0 and abs(dt["from_dead_time_s"] - 10.0) <= 1.0
+    # beyond one sample of the model's delay: a smaller change is never named
+    assert dt["minimum"] is None or dt["from_dead_time_s"] + dt["minimum"] > 11.0

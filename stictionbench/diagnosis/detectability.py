@@ -136,7 +136,10 @@ def minimum_detectable(ctx: Context, band, f_hp: float | None, f_lp: float | Non
     dict
         ``power``, ``alpha``, ``gate`` and ``effects``: per effect ``{"minimum": value or
         None, "unit": "s" or "OP", "searched_up_to": the range's end, "limited_by": the
-        conditions a slightly smaller effect fails}``.
+        conditions a slightly smaller effect fails}``; the dead-time changes also give
+        ``from_dead_time_s`` (the delay the record shows: the model's, aligned by the
+        nominal fit's timing shift, from which the change is counted) and
+        ``model_dead_time_s``.
 
     References
     ----------
@@ -221,7 +224,13 @@ def minimum_detectable(ctx: Context, band, f_hp: float | None, f_lp: float | Non
                 else:
                     hi = mid
             found = hi
-        effects[key] = {"minimum": found, "unit": unit, "searched_up_to": float(rng[1]),
+        if name == "dead_time":
+            # the change is from the delay the record shows (the model's, aligned by the
+            # timing shift the nominal fit chose), not from the model's own
+            effects[key] = {"from_dead_time_s": float(ctx.theta),
+                            "model_dead_time_s": float(theta_model)}
+        effects[key] = {**effects.get(key, {}), "minimum": found, "unit": unit,
+                        "searched_up_to": float(rng[1]),
                         # what a slightly smaller effect fails: "power" (a longer or
                         # quieter record would show it), "gate" (the NRMSE gate, which
                         # record length does not lower), "resolution" (one sample);

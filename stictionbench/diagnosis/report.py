@@ -196,6 +196,8 @@ def _detectable_lines(d: Diagnosis) -> list[str]:
         what, unit = DETECTABLE_WORDS[key]
         size = (f"{e['minimum']:.3g}{unit}" if e["minimum"] is not None
                 else f"none up to {e['searched_up_to']:.3g}{unit}")
+        if "from_dead_time_s" in e:
+            size += f" from the {e['from_dead_time_s']:.3g} s the record shows"
         parts.append(f"{what} {size} ({' and '.join(e['limited_by'])})")
     return [f"- Smallest effects this record's tests would have seen (power "
             f"{m['power']:.0%} at alpha {m['alpha']:g}; OP units for valves; in brackets "
