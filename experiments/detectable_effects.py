@@ -92,15 +92,19 @@ def _verdict(res, cls: str) -> dict:
     return out
 
 
-def _one(set_: str, name: str, cls: str) -> dict:
+def _diagnosed(folder: Path, name: str, cls: str) -> dict:
+    """``FOLDER/NAME.csv`` diagnosed with its model YAML as the command does: the fields
+    :func:`_verdict` keeps."""
     from stictionbench.diagnosis import diagnose
     from stictionbench.diagnosis.model import load_model
     from stictionbench.io import read_recording
 
-    d = lig.DATA / f"set_{set_}"
-    rec = read_recording(str(d / f"{name}.csv"), warn=False)
-    res = diagnose(rec, load_model(d / f"{name}.model.yaml"))
-    return {"group": set_, "name": name, **_verdict(res, cls)}
+    rec = read_recording(str(folder / f"{name}.csv"), warn=False)
+    return _verdict(diagnose(rec, load_model(folder / f"{name}.model.yaml")), cls)
+
+
+def _one(set_: str, name: str, cls: str) -> dict:
+    return {"group": set_, "name": name, **_diagnosed(lig.DATA / f"set_{set_}", name, cls)}
 
 
 def _twin(set_: str, name: str, seed: int, level: int, cls: str) -> dict:
@@ -112,19 +116,14 @@ def _twin(set_: str, name: str, seed: int, level: int, cls: str) -> dict:
 
     import healthy_false_alarms as hfa
 
-    from stictionbench.diagnosis import diagnose
-    from stictionbench.diagnosis.model import load_model
-    from stictionbench.io import read_recording
-
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         if lig.GENERATOR[set_] == "A":
             hfa.remake(seed, level, "as_recorded", d, name, cls="none")
         elif hfa.remake_c(seed, level, "as_recorded", d, cls="none")["name"] != name:
             raise RuntimeError(f"seed {seed} does not make {name}")
-        rec = read_recording(str(d / f"{name}.csv"), warn=False)
-        res = diagnose(rec, load_model(d / f"{name}.model.yaml"))
-    return {"name": name, **{f"twin_{k}": v for k, v in _verdict(res, cls).items()}}
+        got = _diagnosed(d, name, cls)
+    return {"name": name, **{f"twin_{k}": v for k, v in got.items()}}
 
 
 def true_effect(t: pd.DataFrame, generator: str) -> pd.DataFrame:

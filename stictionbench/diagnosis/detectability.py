@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 from scipy.stats import chi2, ncx2
 
-from .evidence import output_error
+from .evidence import Verdict, output_error
 from .fit import Fit
 from .hypotheses import HYPOTHESES, NOMINAL_ALIGNMENT, Context, Nominal
 from .openloop import fopdt_response, likelihood_highpass
@@ -80,15 +80,15 @@ EFFECTS = (("dead_time_longer", "dead_time", "s"), ("dead_time_shorter", "dead_t
            ("stiction_S", "stiction", "OP"))
 
 
-def _range(key: str, ctx: Context) -> tuple[float, float] | None:
-    """The effect sizes scanned: the hypothesis's own search range."""
+def _range(key: str, name: str, ctx: Context) -> tuple[float, float] | None:
+    """The effect sizes scanned: the hypothesis's own search range (its bounds), a
+    dead-time change from a quarter sample up to the range's end either way."""
+    lo, hi = HYPOTHESES[name].bounds(ctx)[0]
     if key == "dead_time_longer":
-        return ctx.Ts / 4, max(3.0 * ctx.theta + 2.0 * ctx.tau, 20 * ctx.Ts) - ctx.theta
+        return ctx.Ts / 4, hi - ctx.theta
     if key == "dead_time_shorter":
-        return (ctx.Ts / 4, ctx.theta) if ctx.theta > ctx.Ts else None
-    if key == "sensor_lag":
-        return 0.05 * ctx.Ts, max(8.0 * ctx.tau, 20 * ctx.Ts)
-    return 0.01 * ctx.op_unit, max(0.1 * ctx.op_unit, 1.2 * ctx.op_span)
+        return (ctx.Ts / 4, ctx.theta - lo) if ctx.theta > ctx.Ts else None
+    return lo, hi
 
 
 def _parameters(key: str, ctx: Context, s: float) -> np.ndarray:
@@ -102,8 +102,8 @@ def _parameters(key: str, ctx: Context, s: float) -> np.ndarray:
 
 
 def minimum_detectable(ctx: Context, band, f_hp: float | None, f_lp: float | None,
-                       nominal: Fit, noise, val: np.ndarray, *, alpha: float, gate: float,
-                       own_resolution: frozenset[str], highpass_order: int = 2,
+                       nominal: Fit, verdict: Verdict, val: np.ndarray, *, alpha: float,
+                       gate: float, highpass_order: int = 2,
                        power: float = POWER) -> dict[str, Any]:
     """The smallest dead-time change, sensor lag, dead band and stiction ``S`` that the
     diagnosis's tests would have seen on this record (see the module docstring).
@@ -118,14 +118,14 @@ def minimum_detectable(ctx: Context, band, f_hp: float | None, f_lp: float | Non
         Its corners (Hz).
     nominal : Fit
         The nominal model's fit (its gain and its band-passed residual).
-    noise : NoiseModel
-        The noise model the tests whitened with (:attr:`.evidence.Verdict.noise`).
+    verdict : Verdict
+        The tests' outcome (:class:`.evidence.Verdict`): their noise model, the nominal
+        model's innovation variance on the validation blocks and the hypotheses judged by
+        their own resolution (:func:`.evidence.passes`).
     val : ndarray
         Indices of the validation samples.
     alpha, gate : float
         The tests' level and the NRMSE gate the diagnosis applied.
-    own_resolution : frozenset of str
-        Hypotheses judged by their own resolution (:func:`.evidence.passes`).
     highpass_order : int
         The high-pass of the output errors the tests whitened (2: the band's).
     power : float
@@ -157,9 +157,12 @@ def minimum_detectable(ctx: Context, band, f_hp: float | None, f_lp: float | Non
     else:
         def test_filter(x):
             return likelihood_highpass(x, Ts, f_hp, highpass_order)
-    e0 = output_error(nominal, ctx.pv, Ts, f_hp, highpass_order)
-    s1 = float(np.mean(noise.whiten(e0)[val] ** 2)) or 1e-300
-    sk = (float(np.mean(noise.kstep(e0, horizon)[val] ** 2)) or 1e-300) if horizon > 1 else 0.0
+    noise, own_resolution = verdict.noise, verdict.own_resolution
+    s1 = verdict.variances["none"]["validation"] or 1e-300
+    sk = 0.0
+    if horizon > 1:
+        e0 = output_error(nominal, ctx.pv, Ts, f_hp, highpass_order)
+        sk = float(np.mean(noise.kstep(e0, horizon)[val] ** 2)) or 1e-300
     v = float(np.mean(nominal.resid[val] ** 2)) or 1e-300
     level = alpha / 2 if horizon > 1 else alpha
 
@@ -204,7 +207,7 @@ def minimum_detectable(ctx: Context, band, f_hp: float | None, f_lp: float | Non
 
     effects: dict[str, Any] = {}
     for key, name, unit in EFFECTS:
-        rng = _range(key, ctx)
+        rng = _range(key, name, ctx)
         if rng is None or rng[1] <= rng[0]:
             continue
         found, prev, why = None, None, ["range"]

@@ -747,9 +747,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     if detectability and cmp.ctx.model_given:
         # what the tests just run would have seen on this record (.detectability)
         detectable = minimum_detectable(
-            cmp.ctx, cmp.prob.band, cmp.prob.f_hp, cmp.prob.f_lp, fits["none"], verdict.noise,
-            cmp.prob.val, alpha=alpha, gate=gate, own_resolution=verdict.own_resolution,
-            highpass_order=test_highpass_order)
+            cmp.ctx, cmp.prob.band, cmp.prob.f_hp, cmp.prob.f_lp, fits["none"], verdict,
+            cmp.prob.val, alpha=alpha, gate=gate, highpass_order=test_highpass_order)
     look = second_look(cmp, verdict, alpha=alpha, min_improvement=min_improvement,
                        lp_factor=lp_factor, highpass_order=test_highpass_order)
     if (look is None or not look.named) and cmp.ctx.model_given and cmp.pem:
