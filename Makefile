@@ -80,6 +80,7 @@ concealed: venv
 	$(BIN)/python experiments/disturbance_cycles.py --loops 16 --jobs 2
 	$(BIN)/python experiments/slow_loops.py --seeds 24 --jobs 2
 	$(BIN)/python experiments/slow_loops_named.py --seeds 8 --jobs 2
+	$(BIN)/python experiments/holdout_order_load.py --seeds 12 --jobs 2
 	$(BIN)/python experiments/saturation_evidence.py --seeds 24 --jobs 2
 	$(BIN)/python experiments/valve_curvature.py --seeds 4 --jobs 2
 	$(BIN)/python experiments/disturbance_band.py --seeds 12 --none-seeds 12 --jobs 2
@@ -140,6 +141,7 @@ independent: venv
 # cores the first time; verdicts cached per recording in .cache/first_release)
 first-release: venv
 	$(BIN)/python experiments/first_release.py --jobs 2
+	$(BIN)/python experiments/first_release_holdout.py --jobs 2
 
 # the holdout family pooled over its seed blocks at the current comparison band (22 x 216
 # recordings, re-run by the shipped code; block CSVs cached in .cache/holdout_blocks), the

@@ -25,14 +25,22 @@ Today's verdicts are read from ``reports/concealed/independent_set_X.csv`` (writ
 paired comparisons by the exact McNemar test on the recordings one names right and the
 other does not.
 
-Run: ``.venv/bin/python experiments/first_release.py [--sets a,b,...] [--jobs 2]``
-(about 7 minutes per set of 192 recordings on 2 cores; verdicts cached per recording in
-``.cache/first_release/``); writes ``reports/concealed/first_release.{md,csv,png}``.
+Run: ``.venv/bin/python experiments/first_release.py [--sets a,b,...] [--jobs 2]
+[--first-from CSV]`` (about 7 minutes per set of 192 recordings on 2 cores; verdicts cached
+per recording in ``.cache/first_release/``); writes
+``reports/concealed/first_release.{md,csv,png}``. The first release's verdicts depend on
+the recordings alone, so when only today's diagnosis changed, ``--first-from
+reports/concealed/first_release.csv`` (a previous output, copied aside) reads them from
+there instead of re-running the first release: every recording must be in it, and where it
+holds ``recording_sha256`` (the SHA-256 of the recording's CSV and model YAML, written
+since 2026-11-28) the recording must hash the same; the report says where its verdicts
+came from and whether they were verified.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import subprocess
@@ -207,23 +215,66 @@ def paired(df: pd.DataFrame) -> dict:
             "McNemar p": mcnemar_p(only_now, only_first)}
 
 
-def load(sets: list[str], jobs: int) -> pd.DataFrame:
-    """Today's stored verdicts and the first release's, one row per recording."""
-    code = str(extract(FIRST, WORK / "code"))
-    frames = []
+def recording_sha256(data: Path, name: str) -> str:
+    """SHA-256 of a recording's CSV followed by its model YAML: what the first release's
+    verdict on it depends on."""
+    h = hashlib.sha256((data / f"{name}.csv").read_bytes())
+    h.update((data / f"{name}.model.yaml").read_bytes())
+    return h.hexdigest()
+
+
+def stored_first(path: Path, set_: str, data: Path, names: pd.Series) -> tuple[pd.DataFrame,
+                                                                              bool]:
+    """The first release's verdicts on set ``set_`` read from a previous output CSV (see
+    the module's docstring); returns them and whether every one was verified by hash.
+    Raises ``ValueError`` for a recording missing from it or hashing differently."""
+    old = pd.read_csv(path, dtype={"first_error": str}, keep_default_na=False)
+    old = old[old["set"] == set_].set_index("name")
+    missing = sorted(set(names) - set(old.index))
+    if missing:
+        raise ValueError(f"{path}: set {set_} lacks {len(missing)} recording(s), "
+                         f"e.g. {missing[0]}")
+    out = old.loc[list(names), ["first", "first_error"]].reset_index()
+    verified = "recording_sha256" in old.columns
+    if verified:
+        for n in names:
+            if old.at[n, "recording_sha256"] != recording_sha256(data, n):
+                raise ValueError(f"{path}: set {set_}, {n}: the recording differs from the "
+                                 "one its verdict was made on")
+    return out, verified
+
+
+def load(sets: list[str], jobs: int, first_from: Path | None = None) -> pd.DataFrame:
+    """Today's stored verdicts and the first release's (run, or read from ``first_from``),
+    one row per recording; ``df.attrs["first_source"]`` says which."""
+    code = None if first_from else str(extract(FIRST, WORK / "code"))
+    frames, verified = [], True
     for s in sets:
         data = BLIND / f"set_{s}"
         ours = pd.read_csv(OUT / f"independent_set_{s}.csv",
                            usecols=["name", "level", "class", "predicted"])
-        work = WORK / f"set_{s}"
-        work.mkdir(parents=True, exist_ok=True)
-        first = run(diagnose_first, [(code, str(data), str(work), n) for n in ours["name"]],
-                    jobs)
+        if first_from:
+            first, ok = stored_first(first_from, s, data, ours["name"])
+            verified &= ok
+        else:
+            work = WORK / f"set_{s}"
+            work.mkdir(parents=True, exist_ok=True)
+            first = run(diagnose_first,
+                        [(code, str(data), str(work), n) for n in ours["name"]], jobs)
+        first["recording_sha256"] = [recording_sha256(data, n) for n in first["name"]]
         df = ours.merge(first, on="name", validate="one_to_one")
         df.insert(0, "set", s)
         df.insert(1, "generator", GENERATOR.get(s, "?"))
         frames.append(df)
-    return pd.concat(frames, ignore_index=True)
+    df = pd.concat(frames, ignore_index=True)
+    df.attrs["first_source"] = (
+        "run here" if not first_from else
+        f"read from a previous run's `{first_from.name}` (the first release's verdicts "
+        "depend on the recordings alone; "
+        + ("every recording verified by its SHA-256)" if verified else
+           "that file predates the recordings' hashes: the sets were checked byte-identical "
+           "by hand, not by this script)"))
+    return df
 
 
 def report(df: pd.DataFrame) -> str:
@@ -232,6 +283,7 @@ def report(df: pd.DataFrame) -> str:
              "Generated by `experiments/first_release.py` (method in its docstring). The "
              f"first release is the package at `{FIRST}`, run as a user ran it then; today's "
              "verdicts are those of `make independent`. Neither was tuned on these sets. "
+             f"The first release's verdicts: {df.attrs.get('first_source', 'run here')}. "
              "Scores of 16 weigh classes equally, 95 % intervals.", "",
              "![first release against today](first_release.png)", "",
              f"## Both, per generator and level (sets {', '.join(sets)} pooled)", ""]
@@ -343,6 +395,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sets", default=",".join(sorted(GENERATOR)),
                     help="comma-separated set letters (default: all nine)")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--first-from", type=Path, default=None,
+                    help="a previous first_release.csv to read the first release's verdicts "
+                         "from instead of re-running it")
     args = ap.parse_args(argv)
     sets = [s.strip().lower() for s in args.sets.split(",") if s.strip()]
     for s in sets:
@@ -351,7 +406,14 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"first_release: {need}: no such file (run `make independent`)",
                       file=sys.stderr)
                 return 2
-    df = load(sets, args.jobs)
+    if args.first_from is not None and not args.first_from.is_file():
+        print(f"first_release: {args.first_from}: no such file", file=sys.stderr)
+        return 2
+    try:
+        df = load(sets, args.jobs, args.first_from)
+    except ValueError as e:
+        print(f"first_release: {e}", file=sys.stderr)
+        return 2
     with atomic_path(OUT / "first_release.csv") as tmp:
         df.to_csv(tmp, index=False)
     text = report(df)

@@ -56,6 +56,34 @@ def jobs_reuse_args(doc: str, reuse_help: str,
     return ap.parse_args(argv)
 
 
+def seeds_jobs_args(doc: str, prog: str, seeds: int, argv: list[str] | None = None,
+                    reuse_help: str | None = None) -> argparse.Namespace | None:
+    """The command line of an experiment that draws ``--seeds`` loops per class (default
+    ``seeds``) and diagnoses them on ``--jobs`` workers (default 2), and with
+    ``reuse_help`` a ``--reuse`` flag (what it keeps); ``None``, after a one-line error on
+    stderr naming ``prog``, when either number is below 1."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=seeds, help="loops per class")
+    ap.add_argument("--jobs", type=int, default=2)
+    if reuse_help is not None:
+        ap.add_argument("--reuse", action="store_true", help=reuse_help)
+    a = ap.parse_args(argv)
+    if a.seeds < 1 or a.jobs < 1:
+        print(f"{prog}: --seeds and --jobs must be at least 1", file=sys.stderr)
+        return None
+    return a
+
+
+def run_written(fn: Callable[[dict], dict], write: Callable[[int, Path], list[dict]],
+                seeds: int, jobs: int) -> pd.DataFrame:
+    """The recordings ``write(seeds, tmp)`` writes into a temporary folder, each passed to
+    ``fn`` on ``jobs`` workers (:func:`run`); the folder is removed afterwards."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        return run(fn, [(j,) for j in write(seeds, Path(tmp))], jobs)
+
+
 def run(fn: Callable[..., dict], todo: list[tuple], jobs: int) -> pd.DataFrame:
     """``fn(*case)`` for every case on ``jobs`` workers, a progress bar by recording
     finished."""

@@ -27,9 +27,7 @@ Run: ``.venv/bin/python experiments/slow_loops_named.py [--seeds 8] [--jobs 2]``
 
 from __future__ import annotations
 
-import argparse
 import sys
-import tempfile
 from pathlib import Path
 
 import pandas as pd
@@ -145,15 +143,10 @@ def reading(df: pd.DataFrame) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=SEEDS, help="loops per class")
-    ap.add_argument("--jobs", type=int, default=2)
-    a = ap.parse_args(argv)
-    if a.seeds < 1 or a.jobs < 1:
-        print("slow_loops_named: --seeds and --jobs must be at least 1", file=sys.stderr)
+    a = fresh.seeds_jobs_args(__doc__, "slow_loops_named", SEEDS, argv)
+    if a is None:
         return 2
-    with tempfile.TemporaryDirectory() as tmp:
-        df = fresh.run(run, [(j,) for j in jobs(a.seeds, Path(tmp))], a.jobs)
+    df = fresh.run_written(run, jobs, a.seeds, a.jobs)
     df = df.sort_values(["record", "tau", "class", "seed"], kind="stable")
     df = df.round({"band_dof": 3}).reset_index(drop=True)
     write_text(OUT / "slow_loops_named.csv", csv_text(df))

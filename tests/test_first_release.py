@@ -92,3 +92,62 @@ def test_projection_follows_todays_rate_where_the_first_release_missed():
     assert np.median(hi) == 16 and np.median(lo) == 8
     # where the first release named both right, today's misses elsewhere do not matter
     assert np.median(fr.projected(bad, {"a": 2}, draws=2000)) == 16
+
+
+def test_stored_first_verdicts_are_checked_against_the_recordings(tmp_path):
+    data = tmp_path / "set_a"
+    data.mkdir()
+    for n, body in (("r1", "t,PV\n0,1\n"), ("r2", "t,PV\n0,2\n")):
+        (data / f"{n}.csv").write_text(body)
+        (data / f"{n}.model.yaml").write_text("sample_time: 1.0\n")
+    names = pd.Series(["r1", "r2"])
+    rows = pd.DataFrame({"set": "a", "name": ["r1", "r2"], "first": ["none", "stiction"],
+                         "first_error": ["", ""]})
+    old = tmp_path / "old.csv"
+    rows.to_csv(old, index=False)
+    got, verified = fr.stored_first(old, "a", data, names)
+    assert list(got["first"]) == ["none", "stiction"] and not verified
+    rows["recording_sha256"] = [fr.recording_sha256(data, n) for n in rows["name"]]
+    rows.to_csv(old, index=False)
+    got, verified = fr.stored_first(old, "a", data, names)
+    assert verified and list(got["name"]) == ["r1", "r2"]
+    # a recording changed since its verdict was made, or one the file lacks: refused
+    (data / "r2.csv").write_text("t,PV\n0,3\n")
+    with pytest.raises(ValueError, match="differs"):
+        fr.stored_first(old, "a", data, names)
+    with pytest.raises(ValueError, match="lacks"):
+        fr.stored_first(old, "a", data, pd.Series(["r1", "r3"]))
+
+
+def test_holdout_anchor_summary_counts_both_diagnoses_per_level():
+    import first_release_holdout as frh
+
+    rows = []
+    for lvl in (1, 2):
+        for cls in sorted(CLASSES):
+            for i in range(4):
+                rows.append({"level": lvl, "class": cls, "name": f"{lvl}{cls}{i}",
+                             "first": cls if i < 2 else "none" if cls != "none" else "x",
+                             "predicted": cls})
+    t = frh.summary(pd.DataFrame(rows)).set_index("level")
+    # the first release names half of every class, today all of them
+    assert t.loc[1, "first release here, of 16"].startswith("8.0")
+    assert t.loc[2, "today here, of 16"].startswith("16.0")
+    # today right wherever the first release was and was not: projected high, more likely
+    # to reach the goal than a diagnosis that repeats the first release's misses
+    assert float(t.loc[1, "today projected onto the judged set"].split()[0]) >= 12
+    same = frh.summary(pd.DataFrame(rows).assign(predicted=lambda d: d["first"]))
+    assert float(t.loc[1, "P(projection ≥ goal)"]) > float(same.iloc[0]["P(projection ≥ goal)"])
+
+
+def test_holdout_anchor_writes_the_recordings_of_holdout_fresh(tmp_path, monkeypatch):
+    import first_release_holdout as frh
+
+    monkeypatch.setattr(frh, "SEEDS", 1)
+    monkeypatch.setattr(frh, "NONE_SEEDS", 1)
+    monkeypatch.setattr(frh, "CLASSES", ["none", "deadband"])
+    block = frh.write_block(tmp_path)
+    assert list(block.name) == ["holdout_sync_L1_none_21000", "holdout_sync_L1_deadband_21000",
+                                "holdout_sync_L2_none_21000", "holdout_sync_L2_deadband_21000"]
+    for n in block.name:
+        assert (tmp_path / f"{n}.csv").is_file() and (tmp_path / f"{n}.model.yaml").is_file()

@@ -72,3 +72,27 @@ def test_command_line_of_the_experiments():
     assert (a.jobs, a.reuse) == (3, True)
     with pytest.raises(SystemExit):
         jobs_reuse_args(sp.__doc__, "re-make only", ["--jobs", "two"])
+
+
+def test_per_recording_ceiling_counts_a_recording_right_under_any_order(monkeypatch):
+    # two recordings per class and level on each generator; order 2 right on the first,
+    # order 0 right on the second, order 1 on neither: each order scores 8 of 16, the
+    # ceiling of a per-recording choice 16 of 16
+    monkeypatch.setattr(cc, "picks", lambda x, a, m: x.predicted)
+    monkeypatch.setattr(sp, "ORDERS", (2, 1, 0))
+    rows = []
+    for g in sp.GENERATORS:
+        for lv in (1, 2):
+            for c in ("none", "stiction"):
+                for i in range(2):
+                    name = f"{g}{lv}{c}{i}"
+                    for o in (2, 1, 0):
+                        right = (o == 2 and i == 0) or (o == 0 and i == 1)
+                        wrong = "deadband" if c == "none" else "none"
+                        rows.append({"generator": g, "level": lv, "class": c, "name": name,
+                                     "order": o, "predicted": c if right else wrong})
+    t = sp.per_recording_ceiling(pd.DataFrame(rows))
+    assert len(t) == 2 * len(sp.GENERATORS)
+    assert all(v.startswith("8.0") for v in t["order 2, of 16"])
+    assert all(v.startswith("0.0") for v in t["order 1, of 16"])
+    assert all(v.startswith("16.0") for v in t["right under some order (oracle), of 16"])
