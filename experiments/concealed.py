@@ -105,10 +105,15 @@ def generate(cls: str, level: int, seed: int, out: Path,
     return write_job(c, sig, out)
 
 
+def recording_name(c: Case) -> str:
+    """The file stem :func:`write_job` gives case ``c``'s recording."""
+    return f"{c.family}_L{c.level}_{c.cls}_{c.seed:02d}"
+
+
 def write_job(c: Case, sig: dict[str, np.ndarray], out: Path) -> dict:
     """Write case ``c``'s recording ``sig`` (t, SP, PV, OP; no MV) as a CSV and its plant
     and PI as the model YAML a user would give; return the job :func:`run_one` takes."""
-    name = f"{c.family}_L{c.level}_{c.cls}_{c.seed:02d}"
+    name = recording_name(c)
     csv = Path(out) / f"{name}.csv"
     pd.DataFrame({k: sig[k] for k in ("t", "SP", "PV", "OP")}).to_csv(csv, index=False)
     model, m = Path(out) / f"{name}.yaml", nominal_model(c)

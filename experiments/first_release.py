@@ -223,25 +223,25 @@ def recording_sha256(data: Path, name: str) -> str:
     return h.hexdigest()
 
 
-def stored_first(path: Path, set_: str, data: Path, names: pd.Series) -> tuple[pd.DataFrame,
-                                                                              bool]:
+def stored_first(path: Path, set_: str, hashes: pd.Series) -> tuple[pd.DataFrame, bool]:
     """The first release's verdicts on set ``set_`` read from a previous output CSV (see
-    the module's docstring); returns them and whether every one was verified by hash.
+    the module's docstring), for the recordings of ``hashes`` (name → their
+    :func:`recording_sha256`); returns them and whether every one was verified by hash.
     Raises ``ValueError`` for a recording missing from it or hashing differently."""
     old = pd.read_csv(path, dtype={"first_error": str}, keep_default_na=False)
     old = old[old["set"] == set_].set_index("name")
+    names = list(hashes.index)
     missing = sorted(set(names) - set(old.index))
     if missing:
         raise ValueError(f"{path}: set {set_} lacks {len(missing)} recording(s), "
                          f"e.g. {missing[0]}")
-    out = old.loc[list(names), ["first", "first_error"]].reset_index()
     verified = "recording_sha256" in old.columns
     if verified:
-        for n in names:
-            if old.at[n, "recording_sha256"] != recording_sha256(data, n):
-                raise ValueError(f"{path}: set {set_}, {n}: the recording differs from the "
-                                 "one its verdict was made on")
-    return out, verified
+        changed = [n for n in names if old.at[n, "recording_sha256"] != hashes[n]]
+        if changed:
+            raise ValueError(f"{path}: set {set_}, {changed[0]}: the recording differs from "
+                             "the one its verdict was made on")
+    return old.loc[names, ["first", "first_error"]].reset_index(), verified
 
 
 def load(sets: list[str], jobs: int, first_from: Path | None = None) -> pd.DataFrame:
@@ -253,15 +253,16 @@ def load(sets: list[str], jobs: int, first_from: Path | None = None) -> pd.DataF
         data = BLIND / f"set_{s}"
         ours = pd.read_csv(OUT / f"independent_set_{s}.csv",
                            usecols=["name", "level", "class", "predicted"])
+        hashes = pd.Series({n: recording_sha256(data, n) for n in ours["name"]})
         if first_from:
-            first, ok = stored_first(first_from, s, data, ours["name"])
+            first, ok = stored_first(first_from, s, hashes)
             verified &= ok
         else:
             work = WORK / f"set_{s}"
             work.mkdir(parents=True, exist_ok=True)
             first = run(diagnose_first,
                         [(code, str(data), str(work), n) for n in ours["name"]], jobs)
-        first["recording_sha256"] = [recording_sha256(data, n) for n in first["name"]]
+        first["recording_sha256"] = hashes.reindex(first["name"]).to_numpy()
         df = ours.merge(first, on="name", validate="one_to_one")
         df.insert(0, "set", s)
         df.insert(1, "generator", GENERATOR.get(s, "?"))

@@ -37,6 +37,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import first_release as fr  # noqa: E402
 import holdout_family as hf  # noqa: E402
+from concealed import recording_name  # noqa: E402
 from concealed_families import CLASSES  # noqa: E402
 from fresh_recordings import run  # noqa: E402
 
@@ -56,8 +57,7 @@ def write_block(data: Path) -> pd.DataFrame:
     for lvl in (1, 2):
         for cls in CLASSES:
             for seed in range(BLOCK, BLOCK + (NONE_SEEDS if cls == "none" else SEEDS)):
-                c = hf.draw(cls, lvl, seed)
-                name = f"{c.family}_L{lvl}_{cls}_{seed:02d}"
+                name = recording_name(hf.draw(cls, lvl, seed))
                 if not (data / f"{name}.model.yaml").is_file():
                     job = hf.generate(cls, lvl, seed, data)
                     Path(job["model"]).replace(data / f"{name}.model.yaml")
@@ -95,6 +95,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--name", default="first_release_holdout", help="output stem")
     ap.add_argument("--jobs", type=int, default=2)
     a = ap.parse_args(argv)
+    if not a.name or Path(a.name).name != a.name:
+        print(f"first_release_holdout: --name {a.name!r}: a file stem, not a path",
+              file=sys.stderr)
+        return 2
     if not a.today.is_file():
         print(f"first_release_holdout: {a.today}: no such file (run `make concealed`)",
               file=sys.stderr)

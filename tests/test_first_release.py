@@ -100,23 +100,27 @@ def test_stored_first_verdicts_are_checked_against_the_recordings(tmp_path):
     for n, body in (("r1", "t,PV\n0,1\n"), ("r2", "t,PV\n0,2\n")):
         (data / f"{n}.csv").write_text(body)
         (data / f"{n}.model.yaml").write_text("sample_time: 1.0\n")
-    names = pd.Series(["r1", "r2"])
+    def hashes(names):
+        return pd.Series({n: fr.recording_sha256(data, n) for n in names})
+
     rows = pd.DataFrame({"set": "a", "name": ["r1", "r2"], "first": ["none", "stiction"],
                          "first_error": ["", ""]})
     old = tmp_path / "old.csv"
     rows.to_csv(old, index=False)
-    got, verified = fr.stored_first(old, "a", data, names)
+    got, verified = fr.stored_first(old, "a", hashes(["r1", "r2"]))
     assert list(got["first"]) == ["none", "stiction"] and not verified
     rows["recording_sha256"] = [fr.recording_sha256(data, n) for n in rows["name"]]
     rows.to_csv(old, index=False)
-    got, verified = fr.stored_first(old, "a", data, names)
+    got, verified = fr.stored_first(old, "a", hashes(["r1", "r2"]))
     assert verified and list(got["name"]) == ["r1", "r2"]
     # a recording changed since its verdict was made, or one the file lacks: refused
     (data / "r2.csv").write_text("t,PV\n0,3\n")
     with pytest.raises(ValueError, match="differs"):
-        fr.stored_first(old, "a", data, names)
+        fr.stored_first(old, "a", hashes(["r1", "r2"]))
+    (data / "r3.csv").write_text("t,PV\n0,4\n")
+    (data / "r3.model.yaml").write_text("sample_time: 1.0\n")
     with pytest.raises(ValueError, match="lacks"):
-        fr.stored_first(old, "a", data, pd.Series(["r1", "r3"]))
+        fr.stored_first(old, "a", hashes(["r1", "r3"]))
 
 
 def test_holdout_anchor_summary_counts_both_diagnoses_per_level():
