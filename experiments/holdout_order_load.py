@@ -165,7 +165,7 @@ def noise_reading(df: pd.DataFrame) -> str:
             + "; ".join(parts) + f" (order 2's: {int(g.integrated_2.sum())} of {len(g)})"
             + (": as often where order 0 names the effect, so not what tells the "
                "recordings it loses apart" if common else "")
-            + f". The loops' median time constant: {slow}.")
+            + f". The loops' median time constant (observed, not varied here): {slow}.")
 
 
 def main(argv: list[str] | None = None) -> int:
