@@ -52,3 +52,31 @@ def test_table_counts_each_order_and_the_pairs():
     assert "named only by order 2 2/3" in hol.noise_reading(df)
     b = hol.by_class(df).set_index("class")
     assert b.loc["stiction", "load 1, order 0"] == "0/2"
+
+
+def test_the_speed_axis_moves_the_time_constant_alone_and_its_reading_follows_the_loss():
+    drawn = hf.draw("sensor_lag", 2, hol.FIRST_SEED)
+    c, _ = hf.at_speed("sensor_lag", 2, hol.FIRST_SEED, hol.TAUS[-1])
+    assert c.tau == hol.TAUS[-1] and c.load == drawn.load
+    assert c.truth["time_constant"] / c.tau == drawn.truth["time_constant"] / drawn.tau
+    assert (1.0, None) in hol.variants() and (1.0, hol.TAUS[0]) in hol.variants()
+
+    def rows(fast_lost: int, slow_lost: int) -> pd.DataFrame:
+        out = []
+        for tau, lost in ((hol.TAUS[0], fast_lost), (hol.TAUS[-1], slow_lost)):
+            for i in range(6):
+                cls = "none" if i == 0 else "stiction"
+                out.append({"load_scale": 1.0, "tau": tau, "class": cls, "seed": i,
+                            "order_2": cls, "order_0": "none" if 0 < i <= lost else cls})
+        return pd.DataFrame(out)
+
+    grows = hol.speed_reading(rows(1, 4))
+    assert "-1 of 5 at τ 8 s (0 / 1, p = 1), -4 of 5 at τ 60 s (0 / 4" in grows
+    assert "grows" in grows
+    assert "does not grow" in hol.speed_reading(rows(3, 4))
+    assert "loses nothing" in hol.speed_reading(rows(2, 0))
+    t = hol.table(rows(1, 4)).set_index(["τ (s)", "order"])
+    assert t.loc[("60", 0), "physics named"].startswith("1/5")
+    assert hol.by_class(rows(1, 4)).set_index("class").loc["stiction", "τ 8 s, order 0"] == "4/5"
+    # the drawn-speed rows alone are what the load's reading counts
+    assert hol.speed_reading(rows(1, 4).assign(tau=float("nan"))) == ""
