@@ -421,3 +421,36 @@ def sb_compress(rec: Recording) -> Recording:
     from stictionbench.sim.measurement import historian_compression
 
     return historian_compression(rec, 0.5, joint=True)
+
+
+def test_yamashita_reads_the_change_across_a_filled_hold_not_the_line():
+    """A straight line filled in over a historian's hold spreads the change across the
+    gap over many samples, each step below the steady band: a stick (OP moved, the
+    valve did not) reads as 'nothing moves'. The index reads the change from one
+    measured sample to the next instead, counted for the samples it spans, and so
+    recovers the stick the uncompressed record shows."""
+    from stictionbench.estimators.noise_floor import FILLED, measured_samples
+    from stictionbench.realdata.quality import release_holds
+    from stictionbench.sim.measurement import historian_compression
+
+    rec = _stiction_waves()
+    rng = np.random.default_rng(5)
+    op = np.asarray(rec.OP, float) + 0.02 * rng.standard_normal(len(rec))
+    mv = np.asarray(rec.MV, float) + 0.02 * rng.standard_normal(len(rec))
+    flow = _rec(mv, op)
+    yam = make("yamashita", flow_loop=True)
+    truth = yam.estimate(flow).value
+    assert yam.estimate(flow).decision is True
+    for share in (0.5, 0.7):
+        held = historian_compression(flow, share, joint=True)
+        bridged, filled = release_holds(held, max_gap=10**6)
+        mask = bridged.meta[FILLED]
+        assert filled == int(mask.sum()) > 0.3 * len(rec) and mask.shape == (len(rec),)
+        got = yam.estimate(bridged)
+        assert got.diagnostics["filled_samples"] == filled
+        assert got.decision is True and abs(got.value - truth) < 0.15, (share, got.value)
+        # read as if every sample were measured, the lines hide the stick
+        blind = Recording.from_arrays(bridged.t, bridged.PV, bridged.OP, warn=False)
+        assert yam.estimate(blind).value < got.value - 0.15, share
+    # a record whose length does not fit the mask (resampled) is read without it
+    assert measured_samples(bridged.meta, len(rec) - 1) is None

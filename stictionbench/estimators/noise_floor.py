@@ -17,7 +17,14 @@ previous one nor on the straight line through their neighbours.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
+
+#: ``Recording.meta`` key of the boolean mask of samples a reader filled in (the
+#: straight lines :func:`stictionbench.realdata.quality.release_holds` draws over holds)
+FILLED = "filled_samples"
 
 #: fewest stored samples to measure the noise on, in number and as a share of the record
 #: (else every sample is used: a noise-free piecewise-linear signal, a hand-made triangle
@@ -75,3 +82,24 @@ def difference_noise(x: np.ndarray) -> float:
         return 0.0
     mad = float(np.median(np.abs(d2 - np.median(d2))))
     return mad / 0.6745 / np.sqrt(6.0) * np.sqrt(2.0)
+
+
+def measured_samples(meta: Mapping[str, Any], n: int) -> np.ndarray | None:
+    """Mask of the ``n`` samples that were measured (not filled in, ``meta[FILLED]``);
+    ``None`` when nothing is marked as filled or the mask does not fit a record of
+    ``n`` samples (a resampled record).
+
+    Examples
+    --------
+    >>> measured_samples({FILLED: np.array([0, 0, 1, 1, 0, 0], bool)}, 6).tolist()
+    [True, True, False, False, True, True]
+    >>> measured_samples({}, 6) is None
+    True
+    """
+    mask = meta.get(FILLED)
+    if mask is None:
+        return None
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != (n,) or not mask.any():
+        return None
+    return ~mask

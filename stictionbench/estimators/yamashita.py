@@ -20,7 +20,7 @@ from ..validation import Constraint, Interval, TypeOf
 from .base import EstimateResult
 from .detector import StictionDetector
 from .kano import finite_pair
-from .noise_floor import difference_noise
+from .noise_floor import difference_noise, measured_samples
 
 SYMBOLS = ("D", "S", "I")
 
@@ -45,9 +45,17 @@ def symbols(x: np.ndarray, tolerance: float, noise_factor: float = 3.0) -> np.nd
     return q
 
 
-def pattern_times(op: np.ndarray, mv: np.ndarray, tolerance: float) -> dict[str, int]:
+def pattern_times(op: np.ndarray, mv: np.ndarray, tolerance: float,
+                  measured: np.ndarray | None = None) -> dict[str, int]:
     """Samples spent in each of the nine OP–MV symbol pairs (``"IS"``: OP increasing,
     MV steady, ...).
+
+    ``measured`` (a mask of the samples) reads a record whose historian holds were
+    filled in: the symbols are those of the changes from one measured sample to the
+    next, each counted for the samples it spans. A straight line drawn over a hold
+    spreads a change over many samples, each step below the steady band, and moves OP
+    and the valve together by construction; the change across the gap is what was
+    measured (OP moved beyond its band while the valve did not: a stick).
 
     Examples
     --------
@@ -56,11 +64,19 @@ def pattern_times(op: np.ndarray, mv: np.ndarray, tolerance: float) -> dict[str,
     >>> t = pattern_times(op, mv, 0.1)
     >>> t["IS"], t["II"], t["SS"]
     (5, 4, 0)
+    >>> keep = np.ones(10, bool); keep[1:4] = False    # samples 1-3 filled in
+    >>> t = pattern_times(op, mv, 0.1, keep)
+    >>> t["IS"], t["II"], t["SS"]
+    (5, 4, 0)
     """
+    weights = None
+    if measured is not None:
+        at = np.flatnonzero(measured)
+        op, mv, weights = np.asarray(op)[at], np.asarray(mv)[at], np.diff(at)
     qo, qm = symbols(op, tolerance), symbols(mv, tolerance)
     code = (qo + 1) * 3 + (qm + 1)
-    counts = np.bincount(code, minlength=9)
-    return {SYMBOLS[i // 3] + SYMBOLS[i % 3]: int(counts[i]) for i in range(9)}
+    counts = np.bincount(code, weights=weights, minlength=9)
+    return {SYMBOLS[i // 3] + SYMBOLS[i % 3]: int(round(counts[i])) for i in range(9)}
 
 
 class Yamashita(StictionDetector):
@@ -74,7 +90,11 @@ class Yamashita(StictionDetector):
     ``ρ = (τ_IS + τ_DS) / (τ_total − τ_SS)``,
 
     the share of the time in which something moves that OP moves while the valve stays
-    put. Published rule: ``ρ > 0.25`` stiction, else no stiction. The verdict is the
+    put. Where a historian's holds were filled in (the recording's ``meta[FILLED]``,
+    :func:`~.noise_floor.measured_samples`), the symbols are those of the changes
+    between measured samples, each counted for the samples it spans
+    (:func:`pattern_times`). Published rule:
+    ``ρ > 0.25`` stiction, else no stiction. The verdict is the
     published rule's; its diagnostics add how many moving samples ``ρ`` rests on and its
     Wilson 95 % interval (``moving``, ``rho_interval``, in words ``evidence``: on noisy
     records sampled slowly, few differences leave the noise band — 2 to 14 of 750 on
@@ -139,7 +159,8 @@ class Yamashita(StictionDetector):
         finite_pair(self.name, x, y)
         if np.ptp(x) <= self.op_tolerance * self.op_percent(x):
             return self._result(nan, None, "OP constant", valve=valve, **rule)
-        times = pattern_times(x, y, self.tolerance)
+        measured = measured_samples(rec.meta, x.size)
+        times = pattern_times(x, y, self.tolerance, measured)
         moving = x.size - 1 - times["SS"]
         if moving <= 0:
             return self._result(nan, None, "no movement", valve=valve, **rule)
@@ -150,5 +171,6 @@ class Yamashita(StictionDetector):
         return self._result(
             rho, decision, "valve steady while OP moves" if decision else "valve moves with OP",
             valve=valve, moving=int(moving), rho_interval=(lo, hi),
+            filled_samples=0 if measured is None else int((~measured).sum()),
             evidence=f"ρ = {rho:.2f} from {moving} moving samples, 95 % [{lo:.2f}, {hi:.2f}]",
             **{f"time_{k}": v for k, v in times.items()}, **rule)

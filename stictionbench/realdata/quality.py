@@ -86,6 +86,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..estimators.noise_floor import FILLED
 from ..recording import Recording
 from ..sim.measurement import held_fraction
 from ..validation import jsonable
@@ -556,7 +557,10 @@ def release_holds(rec: Recording, max_gap: int | None = None, *,
     is not, and a stick followed by a slip becomes a ramp
     (``experiments/compression.py`` measures both).
 
-    Returns the new recording and the number of samples in which any signal was filled.
+    Returns the new recording and the number of samples in which any signal was filled;
+    the recording's ``meta[FILLED]`` marks those samples (a boolean mask), so that a
+    method counting sample-by-sample co-movement can leave the line's samples out
+    (:class:`~stictionbench.estimators.yamashita.Yamashita`).
 
     Examples
     --------
@@ -595,8 +599,9 @@ def release_holds(rec: Recording, max_gap: int | None = None, *,
         return rec, 0
     changes = {s: np.interp(k, k[~f], np.asarray(getattr(rec, s), float)[~f])
                for s, f in fills.items()}
-    filled = int(np.logical_or.reduce(list(fills.values())).sum())
-    meta = {**rec.meta, "holds_released": filled}
+    mask = np.logical_or.reduce(list(fills.values()))
+    filled = int(mask.sum())
+    meta = {**rec.meta, "holds_released": filled, FILLED: mask}
     return dataclasses.replace(rec, meta=meta, **changes), filled
 
 
