@@ -52,7 +52,8 @@ def pattern_times(op: np.ndarray, mv: np.ndarray, tolerance: float,
 
     ``measured`` (a mask of the samples) reads a record whose historian holds were
     filled in: the symbols are those of the changes from one measured sample to the
-    next, each counted for the samples it spans. A straight line drawn over a hold
+    next (the steady band measured on those changes), each counted for the samples it
+    spans. A straight line drawn over a hold
     spreads a change over many samples, each step below the steady band, and moves OP
     and the valve together by construction; the change across the gap is what was
     measured (OP moved beyond its band while the valve did not: a stick).
@@ -93,18 +94,17 @@ class Yamashita(StictionDetector):
     put. Where a historian's holds were filled in (the recording's ``meta[FILLED]``,
     :func:`~.noise_floor.measured_samples`), the symbols are those of the changes
     between measured samples, each counted for the samples it spans
-    (:func:`pattern_times`). Published rule:
-    ``ρ > 0.25`` stiction, else no stiction. The verdict is the
-    published rule's; its diagnostics add how many moving samples ``ρ`` rests on and its
-    Wilson 95 % interval (``moving``, ``rho_interval``, in words ``evidence``: on noisy
-    records sampled slowly, few differences leave the noise band — 2 to 14 of 750 on
-    the refinery's stiction flow loop, ``reports/real/yamashita_evidence.md`` — and ``ρ``
-    is then a ratio of small counts; the samples are not independent, so the interval
-    understates the uncertainty). Inconclusive when OP's range is within
-    ``op_tolerance`` ("OP constant": movements inside a good valve's 1 % dead band
-    cannot tell), when nothing moves ("no movement") or when MV is not recorded and the
-    loop is not a flow loop ("not a flow loop"); in a flow loop (``flow_loop=True``) PV
-    stands in for a missing MV.
+    (:func:`pattern_times`). Published rule: ``ρ > 0.25`` stiction, else no
+    stiction. The verdict is the published rule's; its diagnostics add how many moving
+    samples ``ρ`` rests on and its Wilson 95 % interval (``moving``, ``rho_interval``,
+    in words ``evidence``: on noisy records sampled slowly, few differences leave the
+    noise band — 2 to 56 of 750 on the refinery's stiction flow loop,
+    ``reports/real/yamashita_evidence.md`` — and ``ρ`` is then a ratio of small counts;
+    the samples are not independent, so the interval understates the uncertainty).
+    Inconclusive when OP's range is within ``op_tolerance`` ("OP constant": movements
+    inside a good valve's 1 % dead band cannot tell), when nothing moves ("no
+    movement") or when MV is not recorded and the loop is not a flow loop ("not a flow
+    loop"); in a flow loop (``flow_loop=True``) PV stands in for a missing MV.
 
     The steady band (``tolerance = 0.1`` and the 3-σ noise floor) and ``op_tolerance``
     are our a-priori choices (as in :class:`~.kano.Kano`); the paper sets the band from
@@ -161,7 +161,7 @@ class Yamashita(StictionDetector):
             return self._result(nan, None, "OP constant", valve=valve, **rule)
         measured = measured_samples(rec.meta, x.size)
         times = pattern_times(x, y, self.tolerance, measured)
-        moving = x.size - 1 - times["SS"]
+        moving = sum(times.values()) - times["SS"]
         if moving <= 0:
             return self._result(nan, None, "no movement", valve=valve, **rule)
         stuck = times["IS"] + times["DS"]

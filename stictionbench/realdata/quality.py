@@ -558,8 +558,9 @@ def release_holds(rec: Recording, max_gap: int | None = None, *,
     (``experiments/compression.py`` measures both).
 
     Returns the new recording and the number of samples in which any signal was filled;
-    the recording's ``meta[FILLED]`` marks those samples (a boolean mask), so that a
-    method counting sample-by-sample co-movement can leave the line's samples out
+    the recording's ``meta[FILLED]`` marks those samples (a boolean mask, a sample in
+    which any signal was filled), so that a method reading sample-to-sample changes can
+    read the change across each gap instead of the line's steps
     (:class:`~stictionbench.estimators.yamashita.Yamashita`).
 
     Examples
