@@ -163,8 +163,7 @@ def reading(df: pd.DataFrame) -> str:
     parts, diff = [], {}
     for scale in LOAD_SCALES:
         g = df[(df.load_scale == scale) & df.tau.isna() & (df["class"] != "none")]
-        d = int((g.order_0 == g["class"]).sum()) - int((g.order_2 == g["class"]).sum())
-        diff[scale] = d
+        d = diff[scale] = _loss(g)
         parts.append(f"{d:+d} of {len(g)} at {scale:g}× the drawn load")
     full, low = diff[max(LOAD_SCALES)], diff[min(LOAD_SCALES)]
     if full >= 0:
