@@ -66,10 +66,15 @@ def _both(rec, model) -> dict:
     return out
 
 
-def one_set(set_: str, name: str) -> dict:
+def set_recording(set_: str, name: str):
+    """Recording ``name`` of independent set ``set_`` and the model YAML it comes with."""
     d = DATA / f"set_{set_}"
-    rec = read_recording(str(d / f"{name}.csv"), warn=False)
-    return {"group": set_, "name": name, **_both(rec, load_model(d / f"{name}.model.yaml"))}
+    return (read_recording(str(d / f"{name}.csv"), warn=False),
+            load_model(d / f"{name}.model.yaml"))
+
+
+def one_set(set_: str, name: str) -> dict:
+    return {"group": set_, "name": name, **_both(*set_recording(set_, name))}
 
 
 def one_holdout(cls: str, level: int, seed: int) -> dict:

@@ -58,7 +58,15 @@ from .evidence import (
     with_range_fallback,
 )
 from .evidence import validate as _validate
-from .fit import Fit, Problem, fit_at, fit_hypothesis, refit_from
+from .fit import (
+    Fit,
+    Problem,
+    fit_at,
+    fit_hypothesis,
+    noise_source,
+    refit_from,
+    search_cost,
+)
 from .gain import GainTest, setpoint_gain
 from .hammerstein import HP_FACTOR, HammersteinResult, fit_hammerstein
 from .hypotheses import HYPOTHESES, NOMINAL_ALIGNMENT, Context, Nominal, lowpass_corner
@@ -223,7 +231,7 @@ def _fit_aligned(cmp_prob: Problem, h, shifts: list[float]) -> Fit:
         else:
             ft = refit_from(prob_s, h, first.p)
         ft.extra = {**ft.extra, "timing_shift_s": shift}
-        if best is None or ft.cost_train < best.cost_train * (1 - 1e-9):
+        if best is None or search_cost(ft) < search_cost(best) * (1 - 1e-9):
             best = ft
     assert best is not None
     return best
@@ -263,9 +271,11 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
         raise InputError(f"{rec.meta.get('source', 'recording')}: too short for the "
                          f"model's time scales (θ + 3τ = {theta + 3 * tau:g} s)")
     blocks = [np.arange(edges[i], edges[i + 1]) for i in range(N_BLOCKS)]
-    ctx = Context(rec.t - rec.t[0], np.asarray(rec.OP, float), np.asarray(rec.PV, float),
+    t = np.asarray(rec.t, float) - float(rec.t[0])
+    ctx = Context(t, np.asarray(rec.OP, float), np.asarray(rec.PV, float),
                   Ts, tau, theta, f_hp, f_lp=f_lp, model_given=model.source == "given",
-                  op_range=op_range or model.op_range or infer_op_range(rec.OP))
+                  op_range=op_range or model.op_range or infer_op_range(rec.OP),
+                  block_times=tuple(float(t[min(e, n - 1)]) for e in edges))
     prob = Problem(ctx, f_hp, np.concatenate(blocks[0::2]), np.concatenate(blocks[1::2]),
                    f_lp)
     # the recording convention (OP stored before or after the controller executed, a
@@ -445,7 +455,7 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit], *,
     parameters are known: ``experiments/oracle_ceiling.py``). ``linear_input_gate``: a
     valve against a given model must also beat the nominal model with a four-tap FIR on OP
     (:mod:`.linear_input`), its p-value the fit's ``gate_p``."""
-    best = min(fits, key=lambda k: fits[k].cost_train)
+    best = noise_source(fits)
     noise = fit_noise_model(fits[best].resid[cmp.prob.train])
     for name, ft in list(fits.items()):
         prob = cmp.prob.with_ctx(ft.ctx).with_noise(noise)
@@ -457,8 +467,8 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit], *,
             # a narrow-basin parameter (a line's period): the output-error optimum may sit
             # in another basin (a slow load's), so the whole search is repeated, the
             # output-error optimum refined as well
-            new = fit_hypothesis(prob, h, also=[ft.p])
-            new.n_params = ft.n_params
+            new = fit_hypothesis(prob, h, also=[ft.p])  # its own n_params: the knots
+            # follow the period (:meth:`.hypotheses.OscillatoryDisturbance.finalize`)
         else:
             new = refit_from(prob, h, ft.p)
             new.n_params = ft.n_params

@@ -58,7 +58,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from .cycle import CycleCheck
-from .fit import Fit
+from .fit import Fit, noise_source
 from .hypotheses import HYPOTHESES, Nominal
 from .noise import NoiseModel, fit_noise_model, input_independence, ljung_box, lr_test
 from .openloop import band_of, likelihood_highpass
@@ -219,7 +219,7 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
     significance is their own resolution (:func:`passes`); ``highpass_order`` the
     high-pass of the output errors whitened (:func:`output_error`)."""
     oe = {name: output_error(ft, pv, Ts, f_hp, highpass_order) for name, ft in fits.items()}
-    best = min(fits, key=lambda k: fits[k].cost_train)
+    best = noise_source(fits)
     noise = fit_noise_model(oe[best][train])
     e = {name: noise.whiten(r) for name, r in oe.items()}
     ek = {name: noise.kstep(r, horizon) for name, r in oe.items()} if horizon > 1 else {}

@@ -38,6 +38,11 @@ class Fit:
     extra: dict[str, Any] = field(default_factory=dict)
     #: the fit sits on an end of a search-limited range (:meth:`.Hypothesis.at_bound`)
     at_bound: bool = False
+    #: where the reported fit adds a structure at the search's optimum (a line's drifting
+    #: amplitudes: :meth:`.Hypothesis.finalize`), the training cost it is compared with
+    #: others by: the searched structure's, or its own with the added parameters' BIC
+    #: price, whichever is lower (:func:`noise_source`); ``None``: :attr:`cost_train`
+    cost_search: float | None = None
     #: p-value of a further test the hypothesis must also pass (the valve against the
     #: linear loop when the process is re-identified); ``None`` when there is none
     gate_p: float | None = None
@@ -192,12 +197,36 @@ def _finish(prob: Problem, h: Hypothesis, evals: list[tuple[np.ndarray, float]],
         for q in _local_grid(h, best_p, prob.ctx):
             cost(q)
         best_p, _ = min(evals, key=lambda e: e[1])
-    fit = fit_at(prob, h, best_p)
+    fit = fit_at(prob, h, h.finalize(prob.ctx, best_p))
     fit.evaluations = len(evals)
     # innovations of a prediction-error fit are white: every training sample counts
     n = prob.train.size if prob.noise is not None else n_effective(fit.resid[prob.train])
-    fit.intervals = profile_intervals(h, evals, fit.cost_train, n)
+    # the profile of the searched structure (a line's constant amplitude), whose optimum
+    # is the best evaluated cost; the reported fit may add a structure at that optimum
+    searched = min(e[1] for e in evals)
+    added = fit.n_params - h.n_params_at(best_p)
+    if added > 0:
+        m = prob.train.size
+        fit.cost_search = min(searched, fit.cost_train * math.exp(added * math.log(m) / m))
+    fit.intervals = profile_intervals(h, evals, searched, n)
     return fit
+
+
+def noise_source(fits: dict[str, Fit]) -> str:
+    """The fit whose output error the noise model ``H`` is fitted to: the best training
+    fit (the larger model's, so that a line or a limit cycle the nominal leaves
+    unexplained is not absorbed into ``H``), a structure added at a search's optimum (a
+    line's drifting amplitudes) counted with its parameters' BIC price
+    (:attr:`Fit.cost_search`): with ten more columns a drifting line fits noise and
+    load best on loops that have no line, and ``H`` was then the line's (a 2 s dead-time
+    change was named a sensor lag under it); a line that is there pays the price many
+    times over, and ``H`` is not left to absorb it."""
+    return min(fits, key=lambda k: search_cost(fits[k]))
+
+
+def search_cost(fit: Fit) -> float:
+    """:attr:`Fit.cost_search`, or the training cost where the fit added no structure."""
+    return fit.cost_train if fit.cost_search is None else fit.cost_search
 
 
 def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
@@ -211,7 +240,7 @@ def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
         cost(np.asarray(p, float))
     if h.params and refine:
         for p0 in also or []:
-            _local_search(h, prob.ctx, np.asarray(p0, float), cost, prob.scale)
+            _local_search(h, prob.ctx, h.searched(np.asarray(p0, float)), cost, prob.scale)
         order = sorted(range(len(evals)), key=lambda i: evals[i][1])
         seeds = [evals[i][0] for i in order[:starts]]
         k = len(h.params)
@@ -232,7 +261,7 @@ def refit_from(prob: Problem, h: Hypothesis, p0: np.ndarray) -> Fit:
     """Refit ``h`` under ``prob`` (e.g. another noise model) by a local search from
     ``p0`` (an earlier optimum), with the profile grid for the intervals."""
     evals, cost = _recorder(prob, h)
-    p0 = np.asarray(p0, float)
+    p0 = h.searched(np.asarray(p0, float))
     cost(p0)
     if h.params:
         _local_search(h, prob.ctx, p0, cost, prob.scale)
@@ -244,8 +273,8 @@ def fit_at(prob: Problem, h: Hypothesis, p: np.ndarray) -> Fit:
     least squares), remembering the context it was evaluated in."""
     p = np.asarray(p, float)
     c, beta, pred = prob.evaluate(h, p)
-    fit = Fit(h.name, p, beta, c, h.describe(p, beta), h.n_params_at(p), prob.y - pred, pred,
-              evaluations=1)
+    fit = Fit(h.name, p, beta, c, h.describe(p, beta), h.n_params_at(p),
+              prob.y - pred, pred, evaluations=1)
     fit.extra = h.extra(p)
     fit.at_bound = h.at_bound(prob.ctx, p)
     fit.ctx = prob.ctx

@@ -2,15 +2,17 @@
 parameters that turns the recorded OP into regressors for the measured PV.
 
 Every hypothesis predicts ``PV ≈ c + K·G(valve(OP))`` (plus, for the disturbance, a
-sinusoid) where ``G`` is the unit-gain FOPDT of the nominal model and ``K`` and the
-other linear coefficients are solved by least squares, so that a gain error or an offset
-is never blamed on physics. The nonlinear parameters are what the fitter searches.
+line whose amplitude and phase may drift slowly) where ``G`` is the unit-gain FOPDT of
+the nominal model and ``K`` and the other linear coefficients are solved by least
+squares, so that a gain error or an offset is never blamed on physics. The nonlinear
+parameters are what the fitter searches.
 
 Vocabulary (``missing_physics``): ``none``, ``stiction`` (S, J in % of OP span),
 ``deadband`` (deadband, %), ``sensor_lag`` (time_constant, s), ``dead_time`` (dead_time,
 s, the total), ``valve_characteristic`` (rangeability; the valve opening with or against
 OP), ``saturation`` (op_low/op_high,
-%), ``oscillatory_disturbance`` (period s, amplitude).
+%), ``oscillatory_disturbance`` (period s, amplitude; with a drifting line also
+amplitude_min and amplitude_max).
 """
 
 from __future__ import annotations
@@ -86,6 +88,9 @@ class Context:
     #: OP's 0 and 100 % in its own units (:mod:`.op_range`; ``None``: unknown, so the
     #: valve characteristic is not tested)
     op_range: tuple[float, float] | None = (0.0, 100.0)
+    #: times (s, on ``t``) of the edges of the training and validation blocks, where a
+    #: line's drifting amplitude has its knots (:func:`line_knots`); ``None``: unknown
+    block_times: tuple[float, ...] | None = None
 
     @property
     def op_span(self) -> float:
@@ -164,6 +169,16 @@ class Hypothesis:
     def extra(self, p: np.ndarray) -> dict[str, Any]:
         """Further (non-vocabulary) fitted settings, reported under details."""
         return {}
+
+    def finalize(self, ctx: Context, p: np.ndarray) -> np.ndarray:
+        """The parameters the fit is reported at, from the search's optimum ``p``: ``p``
+        itself, or with a structure the search held fixed set (a line's drift knots)."""
+        return p
+
+    def searched(self, p: np.ndarray) -> np.ndarray:
+        """The inverse of :meth:`finalize`: the search's parameters of a reported fit's
+        ``p`` (a refit's start)."""
+        return p
 
 
 class Nominal(Hypothesis):
@@ -361,8 +376,46 @@ class Saturation(Hypothesis):
         return out
 
 
+#: an external oscillation keeps its amplitude and phase over at least this many of its
+#: cycles: its in-phase and quadrature amplitudes may change linearly across a block of the
+#: diagnosis's split (1, 3, 5 train; 2, 4 validate) this many periods long or longer
+CYCLES_PER_KNOT = 4.0
+
+
+def line_knots(block_times: tuple[float, ...] | None, period: float) -> int:
+    """Number of knots of a line's slowly varying amplitude and phase: the edges of the
+    diagnosis's blocks (``block_times``, s; a knot at each), when the shortest block holds
+    :data:`CYCLES_PER_KNOT` periods, else 1 (a constant amplitude and phase). A validation
+    block's amplitudes are then the interpolation between the values at its two edges,
+    each pinned by the training block beside it: a prediction, not a fit.
+
+    Examples
+    --------
+    >>> edges = (40.0, 632.0, 1224.0, 1816.0, 2408.0, 3000.0)
+    >>> line_knots(edges, 80.0), line_knots(edges, 200.0), line_knots(None, 80.0)
+    (6, 1, 1)
+    """
+    if block_times is None or len(block_times) < 2 or not period > 0:
+        return 1
+    shortest = float(np.min(np.diff(np.asarray(block_times, float))))
+    return len(block_times) if shortest >= CYCLES_PER_KNOT * period else 1
+
+
 class OscillatoryDisturbance(Hypothesis):
-    """An external sinusoidal disturbance on PV (``period`` s, ``amplitude`` PV units)."""
+    """An external oscillatory disturbance on PV (``period`` s, ``amplitude`` PV units):
+    a line whose amplitude and phase drift slowly, as a plant's oscillations do (an
+    upstream loop's limit cycle, a compressor's surge cycle: Thornhill, Huang & Zhang,
+    *J. Process Control* 13 (2003) 91, measure their periods' spread; a constant
+    sinusoid loses phase within tens of cycles of a period wandering by a few per cent).
+
+    ``d(t) = Σₖ hₖ(t)·(aₖ sin ωt + bₖ cos ωt)`` with hat functions ``hₖ`` on the block
+    edges (:func:`line_knots`: linear interpolation of the in-phase and quadrature
+    amplitudes, a partition of unity: constant ``aₖ, bₖ`` is the constant sinusoid, the
+    single knot of a slow line); the ``2·knots`` amplitudes are linear coefficients,
+    counted in the likelihood-ratio test's degrees of freedom and in BIC. The period is
+    searched with the constant line (one knot: a periodogram-like search whose cost does
+    not gain columns as the period shortens), the knots set at its optimum
+    (:meth:`finalize`): ``p = [period]`` or ``[period, knots]``."""
 
     name = "oscillatory_disturbance"
     params = ("period",)
@@ -424,13 +477,48 @@ class OscillatoryDisturbance(Hypothesis):
     def bounds(self, ctx):
         return [(self._min_period(ctx), self._max_period(ctx))]
 
+    @staticmethod
+    def _knots(p) -> int:
+        return int(p[1]) if len(p) > 1 else 1
+
+    def finalize(self, ctx, p):
+        return np.array([float(p[0]), line_knots(ctx.block_times, float(p[0]))])
+
+    def searched(self, p):
+        return np.asarray(p, float)[:1]
+
     def regressors(self, ctx, p):
         g = fopdt_response(ctx.op, ctx.Ts, ctx.tau, ctx.theta)
         w = 2 * math.pi / float(p[0])
-        return np.column_stack([g, np.sin(w * ctx.t), np.cos(w * ctx.t)])
+        s, c = np.sin(w * ctx.t), np.cos(w * ctx.t)
+        k = self._knots(p)
+        if k == 1 or ctx.block_times is None or len(ctx.block_times) != k:
+            return np.column_stack([g, s, c])
+        knots = np.asarray(ctx.block_times, float)
+        # hat functions on the knots (constant before the first and after the last)
+        hats = np.column_stack([np.interp(ctx.t, knots, np.eye(k)[j]) for j in range(k)])
+        cols = np.empty((g.size, 1 + 2 * k))
+        cols[:, 0] = g
+        cols[:, 1::2] = hats * s[:, None]
+        cols[:, 2::2] = hats * c[:, None]
+        return cols
+
+    def n_params_at(self, p: np.ndarray) -> int:
+        """The period, the gain and two amplitudes per knot."""
+        return len(self.params) + 2 * self._knots(p) + 1
+
+    def extra(self, p):
+        return {"drift_knots": self._knots(p)}
 
     def describe(self, p, beta):
-        return {"period": float(p[0]), "amplitude": float(math.hypot(beta[1], beta[2]))}
+        # the root-mean-square of the knots' amplitudes (the constant line's amplitude
+        # when there is one knot); the spread says how far it drifted
+        amps = np.hypot(np.asarray(beta[1::2], float), np.asarray(beta[2::2], float))
+        out = {"period": float(p[0]), "amplitude": float(np.sqrt(np.mean(amps ** 2)))}
+        if amps.size > 1:
+            out["amplitude_min"] = float(amps.min())
+            out["amplitude_max"] = float(amps.max())
+        return out
 
 
 HYPOTHESES: dict[str, Hypothesis] = {
