@@ -178,20 +178,26 @@ def test_a_wandering_line_is_fitted_with_drifting_amplitude_and_phase(monkeypatc
 
 def test_a_drifting_line_gives_the_noise_model_only_if_it_pays_for_its_knots():
     """The noise model ``H`` is the best training fit's output error's; a drifting line
-    competes with its extra amplitudes' BIC price (``fit.noise_source``)."""
+    competes as its searched constant line and as itself with its extra amplitudes' BIC
+    price (``fit.noise_source``), and ``H`` comes from the residual of the one chosen."""
     from stictionbench.diagnosis.fit import Fit, noise_source, search_cost
 
-    def fit(name: str, cost: float, searched: float | None = None) -> Fit:
+    def fit(name: str, cost: float, searched: Fit | None = None,
+            priced: float | None = None) -> Fit:
         z = np.zeros(3)
-        return Fit(name, z, z, cost, {}, 2, z, z, cost_search=searched)
+        return Fit(name, z, z, cost, {}, 2, z, z, searched=searched, priced_cost=priced)
 
     lag = fit("dead_time", 1.00)
-    # a line fitting noise: 0.5 % better with ten more parameters, its price ~4 %
-    noise_line = fit("oscillatory_disturbance", 0.995, searched=1.01)
+    constant = fit("oscillatory_disturbance", 1.01)
+    # a line fitting noise: 0.5 % better than the lag with ten more parameters, priced 4 %
+    noise_line = fit("oscillatory_disturbance", 0.995, searched=constant, priced=1.035)
     assert search_cost(lag) == 1.00 and search_cost(noise_line) == 1.01
-    assert noise_source({"dead_time": lag, "oscillatory_disturbance": noise_line}) == \
-        "dead_time"
+    assert noise_source({"dead_time": lag, "oscillatory_disturbance": noise_line}) is lag
+    # where the constant line is the best fit, H is its residual's, not the drifting one's
+    slow = fit("dead_time", 1.05)
+    assert noise_source({"dead_time": slow, "oscillatory_disturbance": noise_line}) \
+        is constant
     # a wandering line that is there: the knots pay for themselves
-    real_line = fit("oscillatory_disturbance", 0.5, searched=0.55)
-    assert noise_source({"dead_time": lag, "oscillatory_disturbance": real_line}) == \
-        "oscillatory_disturbance"
+    real_line = fit("oscillatory_disturbance", 0.5, searched=constant, priced=0.52)
+    assert noise_source({"dead_time": lag, "oscillatory_disturbance": real_line}) \
+        is real_line

@@ -455,8 +455,7 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit], *,
     parameters are known: ``experiments/oracle_ceiling.py``). ``linear_input_gate``: a
     valve against a given model must also beat the nominal model with a four-tap FIR on OP
     (:mod:`.linear_input`), its p-value the fit's ``gate_p``."""
-    best = noise_source(fits)
-    noise = fit_noise_model(fits[best].resid[cmp.prob.train])
+    noise = fit_noise_model(noise_source(fits).resid[cmp.prob.train])
     for name, ft in list(fits.items()):
         prob = cmp.prob.with_ctx(ft.ctx).with_noise(noise)
         h = Nominal() if name == "none" else HYPOTHESES[name]

@@ -219,8 +219,10 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
     significance is their own resolution (:func:`passes`); ``highpass_order`` the
     high-pass of the output errors whitened (:func:`output_error`)."""
     oe = {name: output_error(ft, pv, Ts, f_hp, highpass_order) for name, ft in fits.items()}
-    best = noise_source(fits)
-    noise = fit_noise_model(oe[best][train])
+    src = noise_source(fits)
+    src_oe = next((oe[k] for k, ft in fits.items() if ft is src), None)
+    noise = fit_noise_model((output_error(src, pv, Ts, f_hp, highpass_order)
+                             if src_oe is None else src_oe)[train])
     e = {name: noise.whiten(r) for name, r in oe.items()}
     ek = {name: noise.kstep(r, horizon) for name, r in oe.items()} if horizon > 1 else {}
     var = _scores(fits, e, train, val)

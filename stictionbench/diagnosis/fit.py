@@ -39,10 +39,11 @@ class Fit:
     #: the fit sits on an end of a search-limited range (:meth:`.Hypothesis.at_bound`)
     at_bound: bool = False
     #: where the reported fit adds a structure at the search's optimum (a line's drifting
-    #: amplitudes: :meth:`.Hypothesis.finalize`), the training cost it is compared with
-    #: others by: the searched structure's, or its own with the added parameters' BIC
-    #: price, whichever is lower (:func:`noise_source`); ``None``: :attr:`cost_train`
-    cost_search: float | None = None
+    #: amplitudes: :meth:`.Hypothesis.finalize`): the fit of the searched structure at
+    #: that optimum, and the training cost with the added parameters' BIC price
+    #: (:func:`noise_source`); ``None`` where nothing was added
+    searched: Fit | None = field(default=None, repr=False)
+    priced_cost: float | None = None
     #: p-value of a further test the hypothesis must also pass (the valve against the
     #: linear loop when the process is re-identified); ``None`` when there is none
     gate_p: float | None = None
@@ -203,30 +204,38 @@ def _finish(prob: Problem, h: Hypothesis, evals: list[tuple[np.ndarray, float]],
     n = prob.train.size if prob.noise is not None else n_effective(fit.resid[prob.train])
     # the profile of the searched structure (a line's constant amplitude), whose optimum
     # is the best evaluated cost; the reported fit may add a structure at that optimum
-    searched = min(e[1] for e in evals)
     added = fit.n_params - h.n_params_at(best_p)
     if added > 0:
         m = prob.train.size
-        fit.cost_search = min(searched, fit.cost_train * math.exp(added * math.log(m) / m))
-    fit.intervals = profile_intervals(h, evals, searched, n)
+        fit.searched = fit_at(prob, h, best_p)
+        fit.priced_cost = fit.cost_train * math.exp(added * math.log(m) / m)
+    fit.intervals = profile_intervals(h, evals, search_cost(fit), n)
     return fit
 
 
-def noise_source(fits: dict[str, Fit]) -> str:
+def noise_source(fits: dict[str, Fit]) -> Fit:
     """The fit whose output error the noise model ``H`` is fitted to: the best training
     fit (the larger model's, so that a line or a limit cycle the nominal leaves
-    unexplained is not absorbed into ``H``), a structure added at a search's optimum (a
-    line's drifting amplitudes) counted with its parameters' BIC price
-    (:attr:`Fit.cost_search`): with ten more columns a drifting line fits noise and
-    load best on loops that have no line, and ``H`` was then the line's (a 2 s dead-time
-    change was named a sensor lag under it); a line that is there pays the price many
-    times over, and ``H`` is not left to absorb it."""
-    return min(fits, key=lambda k: search_cost(fits[k]))
+    unexplained is not absorbed into ``H``). A fit that added a structure at its search's
+    optimum (a line's drifting amplitudes) competes twice: as the searched structure
+    (:attr:`Fit.searched`, its own cost and residual) and as the reported fit with its
+    added parameters' BIC price (:attr:`Fit.priced_cost`): with ten more columns a
+    drifting line fits noise and load best on loops that have no line, and ``H`` was then
+    the line's (a 2 s dead-time change was named a sensor lag under it); a line that is
+    there pays the price many times over, and ``H`` is not left to absorb it."""
+    cands = []
+    for f in fits.values():
+        if f.searched is None:
+            cands.append((f.cost_train, f))
+        else:
+            cands += [(f.searched.cost_train, f.searched), (f.priced_cost, f)]
+    return min(cands, key=lambda c: c[0])[1]
 
 
 def search_cost(fit: Fit) -> float:
-    """:attr:`Fit.cost_search`, or the training cost where the fit added no structure."""
-    return fit.cost_train if fit.cost_search is None else fit.cost_search
+    """The training cost of the searched structure (:attr:`Fit.searched`), else of the
+    fit itself."""
+    return fit.cost_train if fit.searched is None else fit.searched.cost_train
 
 
 def fit_hypothesis(prob: Problem, h: Hypothesis, *, refine: bool = True,
