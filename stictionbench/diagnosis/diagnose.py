@@ -471,7 +471,8 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit], *,
         else:
             new = refit_from(prob, h, ft.p)
             new.n_params = ft.n_params
-        new.extra, new.gate_p = ft.extra, ft.gate_p
+        # the output-error fit's settings (its alignment), with the refit's own structure
+        new.extra, new.gate_p = {**ft.extra, **h.extra(new.p)}, ft.gate_p
         fits[name] = new
     if cmp.ctx.model_given and linear_input_gate and not fixed:
         # a valve must also beat a linear change of the process input (.linear_input)
