@@ -6,6 +6,11 @@ samples is interpolated (:meth:`.Recording.from_arrays`); a longer one cannot be
 without inventing dynamics, so the record is cut there and each stretch between long
 gaps that is long enough (:data:`~.recording.MIN_SAMPLES`) is analysed on its own —
 rather than refusing the whole file for one outage.
+
+Many historians export an outage as *absent rows* rather than empty cells: the time column
+then jumps by a whole number of sampling intervals. Such rows are put back on the uniform
+grid as missing samples (:func:`missing_rows_as_gaps`), so that the same rules apply to
+both spellings of a gap.
 """
 
 from __future__ import annotations
@@ -15,7 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from .recording import MAX_INTERPOLATED_GAP, MIN_SAMPLES, Recording
+from .errors import user_warning
+from .recording import MAX_INTERPOLATED_GAP, MIN_SAMPLES, UNIFORM_TOLERANCE, Recording
+
+#: at most this many times the file's rows are put on the grid (an outage of weeks in a
+#: record of hours is not a gap to bridge: the strict reader's error stands)
+MAX_GRID_GROWTH = 4.0
 
 
 def stretches(missing: np.ndarray, *, max_gap: int = MAX_INTERPOLATED_GAP,
@@ -55,6 +65,8 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
         When no stretch is :data:`~.recording.MIN_SAMPLES` long (the message names the
         longest gap), or from :meth:`.Recording.from_arrays`.
     """
+    cols, grid_rows = missing_rows_as_gaps(cols, source=source, first_row=first_row,
+                                           warn=warn)
     present = {k: np.asarray(v, float) for k, v in cols.items() if v is not None}
     missing = np.zeros(len(present["t"]), bool)
     for k, v in present.items():
@@ -68,7 +80,8 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
                                       first_row=first_row, warn=warn)]
     out = []
     for a, b in spans:
-        rows = [a + first_row, b - 1 + first_row]
+        ends = (a, b - 1) if grid_rows is None else (grid_rows[a], grid_rows[b - 1])
+        rows = [int(ends[0]) + first_row, int(ends[1]) + first_row]
         md = {**(meta or {}), "rows": rows, "stretch_of": source}
         part = {k: (None if v is None else np.asarray(v, float)[a:b]) for k, v in cols.items()}
         out.append(Recording.from_arrays(
@@ -76,6 +89,62 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
             meta=md, source=f"{source} (rows {rows[0]}–{rows[1]})", first_row=rows[0],
             warn=warn))
     return out
+
+
+def missing_rows_as_gaps(cols: Mapping[str, np.ndarray | None], *, source: str,
+                         first_row: int = 0, warn: bool = True
+                         ) -> tuple[dict[str, np.ndarray | None], np.ndarray | None]:
+    """``cols`` on the uniform time grid where rows are absent from the file: every time
+    step that is a whole number ``k ≥ 2`` of the median step (within
+    :data:`~.recording.UNIFORM_TOLERANCE` of it) gets ``k − 1`` rows of missing values
+    (NaN), with a warning on stderr. Returns the columns and, for each grid row, its
+    index among the file's data rows (``-1`` where inserted; ``first_row`` is the file
+    row of index 0, for the warning), or ``(cols, None)`` unchanged when no row is
+    absent, or when the time column is anything else (missing or decreasing times,
+    uneven steps, an outage longer than :data:`MAX_GRID_GROWTH` times the record), which
+    the strict reader then refuses with its own message.
+
+    Examples
+    --------
+    >>> c = {"t": np.array([0.0, 1, 2, 5, 6]), "PV": np.arange(5.0), "OP": np.ones(5)}
+    >>> g, rows = missing_rows_as_gaps(c, source="x", warn=False)
+    >>> g["t"].tolist(), rows.tolist()
+    ([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0], [0, 1, 2, -1, -1, 3, 4])
+    >>> g["PV"].tolist()
+    [0.0, 1.0, 2.0, nan, nan, 3.0, 4.0]
+    """
+    t = np.asarray(cols["t"], float)
+    if t.size < 3 or not np.all(np.isfinite(t)):
+        return dict(cols), None
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        return dict(cols), None
+    Ts = float(np.median(dt))
+    k = np.rint(dt / Ts)
+    if (np.all(k == 1) or np.any(np.abs(dt - k * Ts) > UNIFORM_TOLERANCE * Ts)
+            or k.sum() + 1 > MAX_GRID_GROWTH * t.size):
+        return dict(cols), None
+    pos = np.r_[0, np.cumsum(k)].astype(int)
+    n = int(pos[-1]) + 1
+    out: dict[str, np.ndarray | None] = {}
+    for name, v in cols.items():
+        if v is None:
+            out[name] = None
+            continue
+        g = np.full(n, np.nan)
+        g[pos] = np.asarray(v, float)
+        out[name] = g
+    out["t"] = t[0] + Ts * np.arange(n)
+    out["t"][pos] = t  # the file's own times where it has them
+    rows = np.full(n, -1)
+    rows[pos] = np.arange(t.size)
+    if warn:
+        big = int(np.argmax(k))
+        m = n - t.size
+        user_warning(f"{source}: {m} row{'s' * (m > 1)} absent from the file (time steps "
+                     f"of whole multiples of {Ts:g} s, the longest {dt[big]:g} s after row "
+                     f"{big + first_row}) treated as missing samples")
+    return out, rows
 
 
 def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:

@@ -182,6 +182,40 @@ def test_long_gaps_cut_the_record_into_usable_stretches(tmp_path, capsys):
     assert stretches(m) == []
 
 
+def test_rows_absent_from_the_file_are_gaps_like_empty_cells(tmp_path, capsys):
+    """An outage exported as absent rows (time jumps by whole sampling intervals) is read
+    as the same outage exported as empty cells: short ones interpolated, long ones cut,
+    file rows reported; uneven steps are still refused by the strict reader's rule."""
+    from stictionbench.io import read_longest_stretch, read_stretches
+
+    n = 1200
+    t = np.arange(n, dtype=float)
+    frame = pd.DataFrame({"t": t, "PV": np.sin(t / 15.0), "OP": np.cos(t / 15.0)})
+    cells, rows = frame.copy(), frame.drop(index=list(range(700, 764)) + [300, 301])
+    cells.loc[700:763, ["PV", "OP"]] = np.nan
+    cells.loc[300:301, ["PV", "OP"]] = np.nan
+    pc, pr = tmp_path / "cells.csv", tmp_path / "rows.csv"
+    cells.to_csv(pc, index=False)
+    rows.to_csv(pr, index=False)
+    with pytest.raises(InputError, match="sampling is not uniform"):
+        read_recording(pr)  # the strict reader is unchanged
+    a, b = read_stretches(pc, warn=False), read_stretches(pr, warn=True)
+    assert len(a) == len(b) == 2
+    for x, y in zip(a, b, strict=True):
+        np.testing.assert_array_equal(x.t, y.t)
+        np.testing.assert_allclose(x.PV, y.PV)
+    # file rows of the absent-row file: the data row before the outage is index 697
+    # there (two rows dropped at 300), file row 699; after it, index 698 -> row 700
+    assert [r.meta["rows"] for r in b] == [[2, 699], [700, 1135]]
+    err = capsys.readouterr().err
+    assert "66 rows absent from the file" in err and "after row 699" in err
+    # a step of 1.5 intervals is not a missing row: refused as before
+    frame.loc[500, "t"] = 500.5
+    frame.to_csv(pr, index=False)
+    with pytest.raises(InputError, match="row 502, column t: sampling is not uniform"):
+        read_longest_stretch(pr)
+
+
 def test_iso_8601_timestamps_in_t_read_as_seconds(tmp_path):
     """Historian exports stamp samples with date-times; t becomes seconds since the first
     (across midnight, with a UTC offset, and from a datetime64 Parquet column)."""
