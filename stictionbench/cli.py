@@ -7,6 +7,7 @@ exit code 2; no traceback, no half-written output file.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import warnings
 from collections.abc import Sequence
@@ -15,6 +16,8 @@ from importlib import import_module
 from .errors import InputError, held_warnings
 
 EXIT_BAD_INPUT = 2
+#: 128 + SIGPIPE, what a shell reports for a filter killed by a closed pipe
+EXIT_BROKEN_PIPE = 141
 
 #: modules that add sub-commands, each with the commands it adds: every module has
 #: ``add_command(subparsers)`` which adds their parsers and sets ``func``. A command
@@ -64,11 +67,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser = build_parser(argv[0] if argv else None)
             args = parser.parse_args(argv)
             code = int(args.func(args) or 0)
+            sys.stdout.flush()  # a closed pipe raises here, not at the interpreter's exit
         for w in held:
             print(f"stictionbench: warning: {w}", file=sys.stderr)
         return code
     except InputError as exc:
         return _error(" ".join(str(exc).split()), held)
+    except BrokenPipeError:
+        # the reader of stdout went away (``| head``): quiet, as Unix filters are; the
+        # interpreter's final flush must not raise again (Python docs, "Note on SIGPIPE")
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except OSError as exc:  # a file that vanished or a disk that filled mid-run
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         return _error(f"{where}{exc.strerror or exc}", held)

@@ -77,3 +77,23 @@ def test_diagnose_without_report_does_not_import_the_plotting_stack(tmp_path):
                          check=True).stdout.strip().splitlines()[-1]
     assert out == "0 False"
     assert (tmp_path / "o.json").is_file()
+
+
+def test_a_closed_pipe_ends_the_command_quietly(tmp_path):
+    # ``stictionbench screen DIR | head -1``: the reader goes away; a Unix filter stops
+    # with no traceback and no "error" line (exit 128 + SIGPIPE)
+    import numpy as np
+    import pandas as pd
+
+    t = np.arange(300.0)
+    for i in range(3):
+        pd.DataFrame({"t": t, "PV": np.sin(t / (9.0 + i)), "OP": np.cos(t / 9.0)}).to_csv(
+            tmp_path / f"r{i}.csv", index=False)
+    code = ("import sys; from stictionbench.cli import main; "
+            f"sys.exit(main(['screen', {str(tmp_path)!r}]))")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()  # nothing read: every write to stdout meets a closed pipe
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141
+    assert err == ""

@@ -101,7 +101,8 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     if args.json:
         write_text(args.json, json.dumps(payload, indent=2) + "\n")
     rows = [("method", res.method), ("value", f"{res.value:.6g} {res.units}"),
-            ("decision", f"{res.decision} ({res.meaning})")]
+            ("decision", f"{res.decision} (True means: {res.meaning})" if res.meaning
+             else str(res.decision))]
     rows += [(k, f"{v:.6g}" if isinstance(v, float) else str(v))
              for k, v in payload["diagnostics"].items() if not isinstance(v, (list, dict))]
     w = max(len(k) for k, _ in rows)
