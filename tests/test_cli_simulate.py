@@ -32,6 +32,8 @@ def test_simulate_writes_csv_and_parquet(tmp_path, capsys):
         (["controller.kc=abc"], "controller.kc: not a number"),
         (["valve=nothing"], "unknown valve 'nothing'"),
         (["noequals"], "expected key=value"),
+        (["sample_time=0"], "sample_time: must be positive"),
+        (["duration=200", "process.dead_time=1e9"], "longer than the simulation"),
     ],
 )
 def test_simulate_bad_input(tmp_path, capsys, args, needle):

@@ -49,7 +49,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise InputError("simulate needs out=PATH.csv or out=PATH.parquet")
     if Path(out).suffix.lower() not in (".csv", ".parquet"):
         raise InputError(f"out={out}: use a .csv or .parquet file")
-    from ..validation import check_writable
+    from ..validation import check_writable, positive
 
     check_writable([out])
     case = special.get("case", "stiction")
@@ -65,9 +65,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             raise InputError(f"seed: must be ≥ 0, got {s}")
         overrides.append(f"seed={s}")
     cfg = config_for(case, overrides)
-    n = float(cfg.duration) / float(cfg.sample_time)
+    duration, Ts = positive("duration", cfg.duration), positive("sample_time", cfg.sample_time)
+    n = duration / Ts
     if n > MAX_SAMPLES:
-        raise InputError(f"duration={cfg.duration:g} s at sample_time={cfg.sample_time:g} s "
+        raise InputError(f"duration={duration:g} s at sample_time={Ts:g} s "
                          f"is {n:.3g} samples; at most {MAX_SAMPLES:.0e} are simulated "
                          "(split a longer study into several runs)")
     rec = simulate_config(cfg)

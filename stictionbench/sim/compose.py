@@ -164,6 +164,9 @@ def simulate_config(cfg: DictConfig) -> Recording:
     sp = b["setpoint"].generate(t)
     kind, vp, post = b["valve"].encode()
     proc = b["process"].coefficients(dt)
+    if proc[4] * dt > duration:  # its delay line would be longer than the run itself
+        raise InputError(f"process.dead_time ({proc[4] * dt:g} s) is longer than the "
+                         f"simulation (duration {duration:g} s): PV would never answer OP")
     vstate = init_state(kind, vp, float(ctrl[5]))
     pv0 = float(b["process"].pv0)
     out = run_loop(sp, noise, dist, n_sub, dt, rec_every, proc, ctrl, kind, vp, vstate, post,
