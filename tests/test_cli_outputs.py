@@ -252,6 +252,22 @@ def test_screen_with_nothing_readable_is_an_error_not_an_empty_screen(tmp_path, 
     assert "bin.csv" in msg and not out.exists()
 
 
+def test_screen_skips_an_unreadable_mat_file_beside_readable_recordings(tmp_path, capsys):
+    # a corrupt .mat and one without the ISDB layout in a folder of recordings: each is
+    # skipped with its reason, the rest screened (it used to refuse the whole folder)
+    import scipy.io as sio
+
+    _recording(tmp_path / "rec.csv")
+    (tmp_path / "bad.mat").write_bytes(b"MATLAB 5.0 garbage" * 10)
+    sio.savemat(tmp_path / "other.mat", {"x": np.arange(10.0)})
+    out = tmp_path / "s.json"
+    assert main(["screen", str(tmp_path), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "skipped " + str(tmp_path / "bad.mat") in text and "other.mat" in text
+    assert "1 recording(s)" in text and "2 file(s) skipped" in text
+    assert [r["name"] for r in json.loads(out.read_text())["recordings"]] == ["rec"]
+
+
 def test_a_model_sample_time_other_than_the_recordings_is_a_warning_after_the_result(
         tmp_path, capsys):
     rec = _recording(tmp_path / "rec.csv")

@@ -29,15 +29,16 @@ def _collect(paths: list[str]) -> tuple[list[tuple[str, Any]], list[tuple[str, s
     skipped: list[tuple[str, str]] = []
 
     def add_file(f: Path) -> None:
-        if f.suffix.lower() == ".mat":
-            from .datasets import is_oscillation_benchmark
-
-            if not is_oscillation_benchmark(f):
-                got, bad = scan_isdb_mat(f, warn=False)
-                recs.extend(got.items())
-                skipped.extend((f"{f.name}:{n}", r) for n, r in bad)
-                return
+        # one unreadable file is skipped with its reason, not the whole screen refused
         try:
+            if f.suffix.lower() == ".mat":
+                from .datasets import is_oscillation_benchmark
+
+                if not is_oscillation_benchmark(f):
+                    got, bad = scan_isdb_mat(f, warn=False)
+                    recs.extend(got.items())
+                    skipped.extend((f"{f.name}:{n}", r) for n, r in bad)
+                    return
             recs.extend(read_any(f, warn=False).items())
         except InputError as exc:
             skipped.append((str(f), str(exc)))
