@@ -56,6 +56,7 @@ def test_batch_cli(loops, tmp_path, capsys):
     for name, rec in cli_loops.items():
         write_recording(rec, d / f"{name}.csv")
     (d / "notes.csv").write_text("a,b\n1,2\n")
+    (d / "export.parquet").write_bytes(b"")  # a format batch does not read: named
     (d / "labels.csv").write_text("loop,label\nsticky,stiction\ntight,no_stiction\n")
     out = tmp_path / "b.json"
     rep = tmp_path / "rep"
@@ -73,7 +74,8 @@ def test_batch_cli(loops, tmp_path, capsys):
                    and v["reason"] for v in r["methods"].values())
     assert names["sticky"]["verdict"] == "stiction"
     assert names["tight"]["verdict"] == "no_stiction"
-    assert {s["file"] for s in res["skipped"]} == {"notes.csv", "labels.csv"}
+    assert {s["file"] for s in res["skipped"]} == {"notes.csv", "labels.csv",
+                                                   "export.parquet"}
     assert res["scores"]["balanced_accuracy_by_group"] == 1.0
     # each loop says how close its majority is
     groups = {g["group"]: g for g in res["scores"]["groups"]}

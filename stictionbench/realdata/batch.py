@@ -37,6 +37,10 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
     if not d.is_dir():
         raise InputError(f"{d}: not a directory")
     recs, skipped = load_csv_dir(d, labels=labels if labels else None, warn=False)
+    # recordings in formats batch does not read are named, not passed over in silence
+    skipped += [(f.name, "batch reads CSV files; convert it, or screen it with `screen`")
+                for f in sorted(d.iterdir())
+                if f.is_file() and f.suffix.lower() in (".parquet", ".mat")]
     if not recs:
         name, reason = skipped[0] if skipped else ("", "")
         why = "" if not skipped else f"; {reason}" if name in reason else \
