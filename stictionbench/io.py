@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import shutil
 import tempfile
 from collections.abc import Iterator
@@ -259,19 +260,31 @@ def _delimiter(head: bytes) -> str:
 
 #: other names of the time column (compared without case)
 TIME_ALIASES = ("time", "timestamp", "datetime", "date_time", "time_s", "t_s")
+#: other names of the signals (compared without case): CO, the controller output, is the
+#: paper's own name for OP
+SIGNAL_ALIASES = {"co": "OP"}
+#: a unit after a column's name, ``PV (degC)``, ``OP [%]``: not part of the name
+_UNIT = re.compile(r"\s*(\([^()]*\)|\[[^\[\]]*\])\s*$")
+
+
+def _column_key(name: str) -> str:
+    """A column's name as matched: without a trailing unit, stripped, lower case."""
+    return _UNIT.sub("", name).strip().lower()
 
 
 def _canonical_columns(frame: pd.DataFrame, source: str) -> pd.DataFrame:
-    """Rename columns that match a signal's name up to case (``pv``, ``Op``) or a time
-    alias (:data:`TIME_ALIASES`) to the canonical ``t, SP, PV, OP, MV``; a name matched by
-    two columns (``PV`` and ``pv``, ``t`` and ``time``) is an error, an exact name is never
+    """Rename columns that match a signal's name up to case (``pv``, ``Op``), with a unit
+    after it (``PV (degC)``, ``OP [%]``), or an alias (:data:`TIME_ALIASES`,
+    :data:`SIGNAL_ALIASES`) to the canonical ``t, SP, PV, OP, MV``; a name matched by two
+    columns (``PV`` and ``pv``, ``t`` and ``time``) is an error, an exact name is never
     renamed."""
     names = [str(c) for c in frame.columns]
     wanted = {c.lower(): c for c in COLUMNS}
     wanted.update({a: "t" for a in TIME_ALIASES})
+    wanted.update(SIGNAL_ALIASES)
     rename: dict[str, str] = {}
     for canon in COLUMNS:
-        hits = [c for c in names if wanted.get(c.lower()) == canon]
+        hits = [c for c in names if wanted.get(_column_key(c)) == canon]
         if canon in names and len(hits) == 1:
             continue
         if len(hits) > 1:

@@ -287,6 +287,21 @@ def test_column_names_matched_without_case_and_time_aliases(tmp_path):
         read_recording(q)
 
 
+def test_units_after_column_names_and_co_for_op(tmp_path):
+    # historian exports put the unit after the name; CO (controller output) is the
+    # paper's name for OP; a unit never makes two columns one signal
+    base = _frame_text().splitlines()
+    p = tmp_path / "units.csv"
+    p.write_text("\n".join(["t [s],SP (degC),PV (degC),CO [%]"] + base[1:]) + "\n")
+    rec = read_recording(p)
+    assert rec.columns == ("t", "SP", "PV", "OP")
+    np.testing.assert_allclose(rec.PV[:3], [np.sin(i / 7) for i in range(3)], atol=1e-6)
+    q = tmp_path / "both.csv"
+    q.write_text("\n".join(["t,SP,PV,OP (%),CO"] + [r + ",0" for r in base[1:]]) + "\n")
+    with pytest.raises(InputError, match=r"OP \(%\), CO could each be OP"):
+        read_recording(q)
+
+
 def test_historian_status_words_are_missing_samples(tmp_path, capsys):
     """'Bad Input', 'I/O Timeout' (OSIsoft PI digital states) are gaps, interpolated when
     short; other text is still an error naming its row."""
