@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -274,31 +276,22 @@ def test_semicolon_tab_and_decimal_comma_csv_read_as_the_comma_one(tmp_path, sep
         np.testing.assert_array_equal(getattr(a, c), getattr(b, c))
 
 
-def test_column_names_matched_without_case_and_time_aliases(tmp_path):
+@pytest.mark.parametrize("header, clash, message", [
+    ("Time,sp,pv,Op", "t,pv,Pv,OP", "pv, Pv could each be PV"),
+    # historian exports put the unit after the name; CO (controller output) is the
+    # paper's name for OP; a unit never makes two columns one signal
+    ("t [s],SP (degC),PV (degC),CO [%]", "t,SP,PV,OP (%),CO", "OP (%), CO could each be OP"),
+])
+def test_column_names_matched_without_case_unit_or_alias(tmp_path, header, clash, message):
     base = _frame_text().splitlines()
-    p = tmp_path / "lower.csv"
-    p.write_text("\n".join(["Time,sp,pv,Op"] + base[1:]) + "\n")
+    p = tmp_path / "names.csv"
+    p.write_text("\n".join([header] + base[1:]) + "\n")
     rec = read_recording(p)
     assert rec.columns == ("t", "SP", "PV", "OP")
     np.testing.assert_allclose(rec.PV[:3], [np.sin(i / 7) for i in range(3)], atol=1e-6)
     q = tmp_path / "two.csv"
-    q.write_text("\n".join(["t,pv,Pv,OP"] + [r + ",0" for r in base[1:]]) + "\n")
-    with pytest.raises(InputError, match="pv, Pv could each be PV"):
-        read_recording(q)
-
-
-def test_units_after_column_names_and_co_for_op(tmp_path):
-    # historian exports put the unit after the name; CO (controller output) is the
-    # paper's name for OP; a unit never makes two columns one signal
-    base = _frame_text().splitlines()
-    p = tmp_path / "units.csv"
-    p.write_text("\n".join(["t [s],SP (degC),PV (degC),CO [%]"] + base[1:]) + "\n")
-    rec = read_recording(p)
-    assert rec.columns == ("t", "SP", "PV", "OP")
-    np.testing.assert_allclose(rec.PV[:3], [np.sin(i / 7) for i in range(3)], atol=1e-6)
-    q = tmp_path / "both.csv"
-    q.write_text("\n".join(["t,SP,PV,OP (%),CO"] + [r + ",0" for r in base[1:]]) + "\n")
-    with pytest.raises(InputError, match=r"OP \(%\), CO could each be OP"):
+    q.write_text("\n".join([clash] + [r + ",0" for r in base[1:]]) + "\n")
+    with pytest.raises(InputError, match=re.escape(message)):
         read_recording(q)
 
 
