@@ -92,6 +92,14 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     check_writable([args.json])
     est = build_estimator(args.method, args.param, args.overrides)
     rec = read_longest_stretch(args.recording)
+    yname = args.y or est.default_y
+    if yname == "MV" and getattr(rec, "MV", None) is None:
+        # the paper's estimators compare OP with the valve position, which plants rarely
+        # record: say what can be done instead of only what is missing
+        raise InputError(f"{args.recording}: {est.name} compares {args.x or est.default_x} "
+                         "with the valve position MV; MV is not recorded: use a method that "
+                         "needs only OP and PV (horch, he, area_ratio, bicoherence, ...), or "
+                         "`diagnose`")
     res = est.estimate(rec, x=args.x, y=args.y)
     payload = res.to_dict()
     payload["recording"] = str(args.recording)
