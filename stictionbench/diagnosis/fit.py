@@ -207,10 +207,26 @@ def _finish(prob: Problem, h: Hypothesis, evals: list[tuple[np.ndarray, float]],
     added = fit.n_params - h.n_params_at(best_p)
     if added > 0:
         m = prob.train.size
-        fit.searched = fit_at(prob, h, best_p)
-        fit.priced_cost = fit.cost_train * math.exp(added * math.log(m) / m)
+        searched = fit_at(prob, h, best_p)
+        priced = fit.cost_train * math.exp(added * math.log(m) / m)
+        if ADDED_STRUCTURE_PAYS and not priced < searched.cost_train:
+            # nested structures decided by evidence: the added parameters do not pay their
+            # BIC price, so the searched structure is the fit
+            searched.evaluations = len(evals)
+            fit = searched
+        else:
+            fit.searched, fit.priced_cost = searched, priced
     fit.intervals = profile_intervals(h, evals, search_cost(fit), n)
     return fit
+
+
+#: a structure a hypothesis adds at its search's optimum (a line's drifting amplitudes,
+#: :meth:`.hypotheses.Hypothesis.finalize`) is kept only where it pays its BIC price
+#: against the searched structure it contains (a constant line), ``m·ln(V_searched /
+#: V_added) > k·ln m`` for its ``k`` added parameters on ``m`` training samples, the
+#: comparison :func:`noise_source` already makes for the noise model; ``False``: kept
+#: wherever the blocks hold enough periods (:func:`.hypotheses.line_knots`)
+ADDED_STRUCTURE_PAYS = False
 
 
 def noise_source(fits: dict[str, Fit]) -> Fit:
