@@ -48,3 +48,16 @@ def test_tour_python_runs(tmp_path, monkeypatch):
 @pytest.mark.parametrize("target", ["make replicate", "make test"])
 def test_readme_names_the_two_setup_commands(target):
     assert target in README.read_text(encoding="utf-8")
+
+
+def test_readme_model_yaml_loads(tmp_path):
+    """The model file the README shows is one ``diagnose --model`` reads as written."""
+    from stictionbench.diagnosis import load_model
+
+    blocks = re.findall(r"```yaml\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S)
+    assert blocks, "the README shows a model file"
+    for i, block in enumerate(blocks):
+        path = tmp_path / f"model{i}.yaml"
+        path.write_text(block, encoding="utf-8")
+        m = load_model(path)
+        assert m.gain > 0 and m.time_constant > 0 and m.kc is not None
