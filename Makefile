@@ -131,8 +131,8 @@ independent: venv
 	$(BIN)/python experiments/setpoint_gain.py --jobs 2
 	$(BIN)/python experiments/snapshot_op.py --loops 48 --jobs 2
 	$(BIN)/python experiments/oracle_ceiling.py --jobs 2
-	$(BIN)/python experiments/healthy_false_alarms.py --jobs 2
 	$(BIN)/python experiments/linear_input_gate.py --jobs 2
+	$(BIN)/python experiments/healthy_false_alarms.py --jobs 2
 	$(BIN)/python experiments/likelihood_highpass.py --jobs 2
 	rm -rf .cache/size_power
 	$(BIN)/python experiments/size_power.py --jobs 2

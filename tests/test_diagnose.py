@@ -415,8 +415,14 @@ def test_json_adds_noise_model_and_tests():
     assert js["noise_model"]["family"] in ("AR", "ARI")
     assert {"statistic", "p_value"} <= set(js["tests"]["whiteness"])
     assert {"nominal", "improved", "innovation_variance"} <= set(js["fit"])
-    # a given model fixes the process: no valve hypothesis is gated by the identification
-    assert all(r["p_gate"] is None for r in js["ranking"])
+    # a given model fixes the process: no valve hypothesis is gated by the identification;
+    # the only gate is the linear-input test (the default), and only on the valves
+    assert all(r["p_gate"] is None for r in js["ranking"]
+               if r["physics"] not in ("stiction", "deadband"))
+    assert all(r["p_gate"] is not None for r in js["ranking"]
+               if r["physics"] in ("stiction", "deadband"))
+    off = diagnose(_rec(seed=8, sensor__time_constant=0.0), NOM, linear_input_gate=False)
+    assert all(r["p_gate"] is None for r in off.to_json()["ranking"])
     # a correct model in closed loop passes the residual analysis against past OP
     assert js["tests"]["independence_from_op"]["p_value"] > 0.01
 

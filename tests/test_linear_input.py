@@ -45,10 +45,10 @@ def test_the_fir_family_nests_its_base(sticky):
 
 
 def test_a_sticky_valve_is_nonlinear_beyond_the_fir(sticky):
-    off = diagnose(sticky, NOM)
+    off = diagnose(sticky, NOM, linear_input_gate=False)
     assert off.details["linear_input_gate"] is False
     assert next(r for r in off.ranking if r["physics"] == "stiction")["p_gate"] is None
-    d = diagnose(sticky, NOM, linear_input_gate=True)
+    d = diagnose(sticky, NOM)  # the gate is the default with a model
     assert d.details["linear_input_gate"] is True
     assert d.missing_physics == "stiction"
     row = next(r for r in d.ranking if r["physics"] == "stiction")
@@ -81,23 +81,32 @@ def test_the_command_takes_the_gate(tmp_path, sticky):
     model = tmp_path / "m.yaml"
     model.write_text("process: {gain: 3.0, time_constant: 10.0, dead_time: 10.0}\n"
                      "controller: {kc: 0.2, ti: 10.0}\nsample_time: 1.0\n")
-    out = tmp_path / "d.json"
-    assert main(["diagnose", str(csv), "--model", str(model), "--json", str(out),
-                 "--linear-input-gate"]) == 0
-    d = json.loads(out.read_text())
-    assert d["details"]["linear_input_gate"] is True
-    assert d["missing_physics"] == "stiction"
-    assert next(r for r in d["ranking"] if r["physics"] == "stiction")["p_gate"] < ALPHA
+    for flag, on in (("--linear-input-gate", True), (None, True),
+                     ("--no-linear-input-gate", False)):
+        out = tmp_path / f"d{flag}.json"
+        assert main(["diagnose", str(csv), "--model", str(model), "--json", str(out),
+                     *([flag] if flag else [])]) == 0
+        d = json.loads(out.read_text())
+        assert d["details"]["linear_input_gate"] is on
+        assert d["missing_physics"] == "stiction"
+        p_gate = next(r for r in d["ranking"] if r["physics"] == "stiction")["p_gate"]
+        assert (p_gate < ALPHA) if on else p_gate is None
 
 
 def test_the_gate_without_a_model_is_refused(tmp_path, sticky, capsys):
+    import json
+
     from stictionbench.cli import main
     from stictionbench.io import write_recording
 
     csv = tmp_path / "r.csv"
     write_recording(sticky, csv)
     out = tmp_path / "d.json"
-    assert main(["diagnose", str(csv), "--json", str(out), "--linear-input-gate"]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--linear-input-gate needs --model" in err[0]
-    assert not out.exists()
+    for flag in ("--linear-input-gate", "--no-linear-input-gate"):
+        assert main(["diagnose", str(csv), "--json", str(out), flag]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{flag} needs --model" in err[0]
+        assert not out.exists()
+    # without a model and without the flag the gate does not apply (and is not refused)
+    assert main(["diagnose", str(csv), "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["details"]["linear_input_gate"] is False

@@ -45,7 +45,11 @@ def test_table_and_reading_count_each_bin():
     assert "bins with both: none" in apart and "could keep both" in apart
 
 
-def test_a_missing_order0_commit_exits_2(capsys):
-    assert obs.main(["--order0-ref", "0000000000000000000000000000000000000000"]) == 2
+def test_a_missing_order0_commit_keeps_the_report(capsys):
+    report = obs.OUT / "order_by_speed.md"
+    before = report.read_bytes()
+    assert obs.main(["--order0-ref", "0000000000000000000000000000000000000000"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("order_by_speed:") and "order0" in err[0]
+    assert "kept as committed" in err[0]
+    assert report.read_bytes() == before

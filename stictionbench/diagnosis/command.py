@@ -32,9 +32,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
             raise InputError(f"--op-range: expected LO HI with HI > LO, got {lo:g} {hi:g}")
         op_range = (lo, hi)
-    if args.linear_input_gate and model is None:
-        raise InputError("--linear-input-gate needs --model: it tests a valve against a "
-                         "given model")
+    if args.linear_input_gate is not None and model is None:
+        flag = "--linear-input-gate" if args.linear_input_gate else "--no-linear-input-gate"
+        raise InputError(f"{flag} needs --model: it tests a valve against a given model")
     if args.test_highpass_order != 2 and model is None:
         raise InputError("--test-highpass-order needs --model: without one the "
                          "comparison keeps its zero-phase band")
@@ -42,7 +42,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         raise InputError(f"--slip-jump-bootstrap: expected a number of null recordings "
                          f">= 0, got {args.slip_jump_bootstrap}")
     d = diagnose(rec, model, op_range=op_range, slip_jump_bootstrap=args.slip_jump_bootstrap,
-                 bootstrap_seed=args.bootstrap_seed, linear_input_gate=args.linear_input_gate,
+                 bootstrap_seed=args.bootstrap_seed,
+                 linear_input_gate=args.linear_input_gate is not False,
                  test_highpass_order=args.test_highpass_order)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
@@ -97,10 +98,12 @@ def add_command(sub) -> None:
                         "default 0: the chi-square test")
     p.add_argument("--bootstrap-seed", type=int, default=0, metavar="SEED",
                    help="seed of the bootstrap's resampling (default 0)")
-    p.add_argument("--linear-input-gate", action="store_true",
+    p.add_argument("--linear-input-gate", action=argparse.BooleanOptionalAction,
+                   default=None,
                    help="with --model, name a dead band or stiction only where it also "
                         "beats the model with a linear four-tap FIR on OP (a PI faster "
-                        "than the historian, a load OP answers); off by default")
+                        "than the historian, a load OP answers); on by default with a "
+                        "model, --no-linear-input-gate for the earlier rule")
     p.add_argument("--test-highpass-order", type=int, default=2, choices=(0, 1, 2),
                    metavar="{0,1,2}",
                    help="with --model, the high-pass order of the output errors the "
