@@ -1,6 +1,6 @@
 """Can the bicoherence test see a sticky valve's limit cycle at the lengths plants give?
 
-``choudhury`` in the real-loop comparison (:mod:`stictionbench.realdata.compare`) answered
+``choudhury`` in the real-loop comparison (:mod:`stictionbench.realdata.panel`) answered
 "Gaussian (NGI ≤ 0): no nonlinearity" on 13 of the 14 ISDB loops, nine of them labelled
 stiction, and on every refinery window. Is that answer evidence against a sticky valve?
 Two suspected causes of a Gaussian answer on a limit cycle, each checked by varying it:
@@ -27,7 +27,7 @@ loops). Every record is cut to its last N samples and tested with the published 
 sticky valves found non-Gaussian (the test's power), the share found nonlinear, and the
 same shares on the linear loops (its false rate), with Wilson 95 % intervals. Nothing is
 tuned on the real loops; the rule drawn from it
-(:func:`stictionbench.realdata.compare._choudhury`: a Gaussian answer is inconclusive,
+(:func:`stictionbench.realdata.panel._choudhury`: a Gaussian answer is inconclusive,
 not "no stiction") is then scored on them.
 
 Run: ``.venv/bin/python experiments/bicoherence_power.py [--seeds 8] [--jobs 2]``; writes

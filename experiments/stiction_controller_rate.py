@@ -23,7 +23,7 @@ A second check asks whether the slip jump is in the sampled signals at all. For 
 sticky valve, the sampled two-parameter model (every stop rule of the
 identification) is fitted by least squares to the *true* valve position MV, recorded at
 1 s, from the recorded OP: no process, no measurement noise, no load. If even this fit
-finds ``J`` near 0 (below :data:`stictionbench.diagnosis.evidence.MIN_SLIP_FRACTION` of
+finds ``J`` near 0 (below :data:`stictionbench.diagnosis.hammerstein.MIN_SLIP_FRACTION` of
 ``S``, the resolution at which ``diagnose`` calls a fitted valve a dead band), no test on
 PV and OP can tell the stiction from a dead band at the historian's rate.
 
@@ -48,8 +48,11 @@ from concealed_families import make_recording, nominal_model  # noqa: E402
 from fast_loops import parse_args, run_loops  # noqa: E402
 
 from stictionbench.diagnosis import diagnose  # noqa: E402
-from stictionbench.diagnosis.evidence import MIN_SLIP_FRACTION  # noqa: E402
-from stictionbench.diagnosis.hammerstein import STOP_RULES, rule_valve  # noqa: E402
+from stictionbench.diagnosis.hammerstein import (  # noqa: E402
+    MIN_SLIP_FRACTION,  # noqa: E402
+    STOP_RULES,
+    rule_valve,
+)
 from stictionbench.io import write_text  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402

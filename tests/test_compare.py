@@ -127,8 +127,8 @@ def test_hammerstein_methods_fit_each_window_afresh():
     """The two model-based methods share one fit per window; a later window (which may
     reuse a freed window's memory address) must never get an earlier window's fit."""
     from stictionbench.diagnosis.hammerstein import fit_hammerstein
-    from stictionbench.realdata import compare
-    from stictionbench.realdata.compare import METHODS
+    from stictionbench.realdata import panel
+    from stictionbench.realdata.panel import METHODS
 
     for seed, case in ((3, "stiction"), (4, "linear")):
         rec = sb.simulate(case, duration=1500, seed=seed, sample_time=1.0, sensor="noisy",
@@ -137,7 +137,7 @@ def test_hammerstein_methods_fit_each_window_afresh():
         rec = sb.Recording.from_arrays(rec.t, rec.PV, rec.OP)
         call = METHODS["hammerstein"](rec, "F")
         # the cache holds the window itself, so no later window can share its id
-        assert compare._FIT[0] is rec
+        assert panel._FIT[0] is rec
         h = fit_hammerstein(rec)
         assert call.value == pytest.approx(h.J if h.stiction or h.sticky else h.S)
         del rec

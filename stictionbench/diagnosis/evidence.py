@@ -59,6 +59,7 @@ from scipy.stats import chi2
 
 from .cycle import CycleCheck
 from .fit import Fit, noise_source
+from .hammerstein import MIN_SLIP_FRACTION, SLIP_JUMP_ASYMPTOTIC
 from .hypotheses import HYPOTHESES, Nominal
 from .noise import NoiseModel, fit_noise_model, input_independence, ljung_box, lr_test
 from .openloop import band_of, likelihood_highpass
@@ -266,18 +267,6 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
     return Verdict(pick, _ranking(rows), _residual_tests(tests, rows, pick, e, op, Ts, f_hp,
                                                          noise, val, model_given=model_given),
                    noise, e, var, own_resolution)
-
-
-#: a slip jump smaller than this fraction of S is below what sampled closed-loop data
-#: resolve against the model error of a discrete replay (set on the ``sim_physical``
-#: benchmark family, see ``experiments/concealed.py``)
-MIN_SLIP_FRACTION = 0.1
-
-#: ``tests.slip_jump_zero.method`` of the default test: the likelihood ratio of ``J = 0``
-#: referred to χ²₁. Not calibrated on closed-loop data: true dead bands reject ``J = 0``
-#: far more often than α (``reports/concealed/slip_jump_calibration.md``); a calibrated
-#: p-value is ``diagnose --slip-jump-bootstrap B`` (``method = "bootstrap"``).
-SLIP_JUMP_ASYMPTOTIC = "chi2_asymptotic"
 
 
 def failed_gates(row: dict[str, Any], alpha: float, min_improvement: float, *,

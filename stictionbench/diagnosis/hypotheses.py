@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from .hammerstein import CHOUDHURY_MIN_SLIP
 from .openloop import (
     equal_percentage,
     first_order_lag,
@@ -214,8 +215,6 @@ class Stiction(Hypothesis):
         span, u = ctx.op_span, ctx.op_unit
         # the cost is rugged in (S, J) (a slip one sample early shifts the whole cycle):
         # a dense coarse grid before the local refinement
-        from .hammerstein import CHOUDHURY_MIN_SLIP  # (it imports this module)
-
         Ss = np.geomspace(0.05 * u, max(0.1 * u, 0.9 * span), 30)
         return [np.array([s, f * s, m]) for m, rule in enumerate(self.STOP_RULES) for s in Ss
                 for f in (0.0, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.25)

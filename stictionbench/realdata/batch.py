@@ -28,7 +28,8 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
     from joblib import Parallel, delayed
     from tqdm import tqdm
 
-    from .compare import METHODS, PUBLISHED, balanced_accuracy, loop_verdicts
+    from .compare import balanced_accuracy, loop_verdicts
+    from .panel import METHODS, PUBLISHED
     from .consensus import Consensus, fit, lolo
     from .datasets import load_csv_dir
     from .verdict import judge

@@ -21,7 +21,8 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from .compare import PUBLISHED, balanced_accuracy
+from .compare import balanced_accuracy
+from .panel import PUBLISHED
 
 THRESHOLDS = (1 / 3, 0.5, 2 / 3, 1.0)
 MIN_VOTES = (1, 2)
