@@ -29,9 +29,9 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
     from tqdm import tqdm
 
     from .compare import balanced_accuracy, loop_verdicts
-    from .panel import METHODS, PUBLISHED
     from .consensus import Consensus, fit, lolo
     from .datasets import load_csv_dir
+    from .panel import METHODS, PUBLISHED
     from .verdict import judge
 
     d = Path(directory)

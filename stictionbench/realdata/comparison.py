@@ -146,8 +146,8 @@ def run_compare(dirs: list[str], out: str, consensus_out: str | None, jobs: int)
     from ..reports.tables import csv_text
     from ..validation import check_writable, refuse_overwrite
     from .compare import method_rates
-    from .panel import METHODS, PUBLISHED
     from .consensus import cross_dataset, fit
+    from .panel import METHODS, PUBLISHED
 
     refuse_overwrite([out, consensus_out], dirs)
     check_writable([consensus_out], [out])
