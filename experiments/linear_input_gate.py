@@ -169,7 +169,7 @@ def report(df: pd.DataFrame) -> str:
         f"- On the fresh sets every recording ran under both settings; the verdicts that "
         f"changed were {'all' if only_valves else 'not all'} a dead band or stiction "
         "without the gate, as the gate's construction says (it can only withdraw a "
-        "valve), which is why on sets A–I only the recordings named a valve were re-run.",
+        "valve).",
         f"- Time per diagnosis (median over {len(timed)} recordings): "
         f"{timed.seconds_default.median():.2f} s without the gate, "
         f"{timed.seconds_gate.median():.2f} s with it.",
