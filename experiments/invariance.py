@@ -186,10 +186,10 @@ def main(argv=None) -> int:
                     default=[str(ROOT.parent / "shared" / "data" / "isdb")])
     ap.add_argument("--out", default=str(ROOT / "reports" / "diagnose"))
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--from-csv", action="store_true",
+    ap.add_argument("--reuse", action="store_true",
                     help="re-make the report from OUT/invariance.csv, running nothing")
     a = ap.parse_args(argv)
-    if a.from_csv:
+    if a.reuse:
         return _write(Path(a.out), None)
     folders = [Path(d) for d in a.data]
     missing = [str(d) for d in folders if not d.is_dir()]
@@ -219,10 +219,10 @@ def _write(out: Path, df: pd.DataFrame | None) -> int:
         with atomic_path(csv) as tmp:
             df.to_csv(tmp, index=False, float_format="%.6g")
     elif not csv.is_file():
-        print(f"invariance: {csv} not present; run without --from-csv first",
+        print(f"invariance: {csv} not present; run without --reuse first",
               file=sys.stderr)
         return 2
-    # the report is made from the file as written, so that --from-csv gives the same text
+    # the report is made from the file as written, so that --reuse gives the same text
     df = pd.read_csv(csv, keep_default_na=False, na_values=[""])
     sections = []
     for name, g in df.groupby("dataset", sort=False):

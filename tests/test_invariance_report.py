@@ -1,6 +1,6 @@
 """``experiments/invariance.py``'s report: the fitted S and J are compared apart for the
 loops named a sticky valve (a finding) and the rest (a loose fit nobody reads), the report
-made from the CSV as written, and ``--from-csv`` without a CSV is exit 2."""
+made from the CSV as written, and ``--reuse`` without a CSV is exit 2."""
 
 from __future__ import annotations
 
@@ -31,14 +31,14 @@ def test_sticky_loops_are_reported_apart():
     assert "1 recordings named no sticky valve as recorded, by at most 1 and 0" in text
 
 
-def test_from_csv_gives_the_report_of_the_run(tmp_path):
+def test_reuse_gives_the_report_of_the_run(tmp_path):
     assert inv._write(tmp_path, _frame()) == 0
     first = (tmp_path / "invariance.md").read_text()
-    assert inv.main(["--out", str(tmp_path), "--from-csv"]) == 0
+    assert inv.main(["--out", str(tmp_path), "--reuse"]) == 0
     assert (tmp_path / "invariance.md").read_text() == first
     assert "by at most 0.05 and 0 of its S" in first
 
 
-def test_from_csv_without_a_csv_is_exit_2(tmp_path, capsys):
-    assert inv.main(["--out", str(tmp_path), "--from-csv"]) == 2
+def test_reuse_without_a_csv_is_exit_2(tmp_path, capsys):
+    assert inv.main(["--out", str(tmp_path), "--reuse"]) == 2
     assert "not present" in capsys.readouterr().err
