@@ -164,7 +164,7 @@ STICKY = ("stiction", "deadband")
 def _valve_sentence(df: pd.DataFrame) -> list[str]:
     """The fitted S and J against the recorded loop's, apart for the loops whose recorded
     diagnosis names a sticky valve (where S and J are reported as a finding) and for the
-    rest (where they are a fit nobody reads: a flat valve cost leaves them loose)."""
+    rest (where the verdict does not report them)."""
     if "S" not in df:
         return []
     named = set(df[(df.rewrite == "recorded") & df.diagnosis.isin(STICKY)].loop)
