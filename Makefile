@@ -113,8 +113,9 @@ concealed: venv
 # record's speed against the order-0 regeneration of branch order0 (order_by_speed), and
 # the oscillatory disturbance's drifting line against the constant sinusoid on fresh sets N
 # and O of both generators and a fresh holdout block (drifting_line), and the PI's period
-# varied on the sets' slow dead-band and stiction loops (slip_jump_pi_rate; about 170
-# minutes on 2 cores in all)
+# varied on the sets' slow dead-band and stiction loops (slip_jump_pi_rate), and the
+# opt-in slip-jump bootstrap on the sets' level-1 valves (slip_jump_bootstrap_sets; about
+# 200 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -142,6 +143,7 @@ independent: venv
 	$(BIN)/python experiments/order_by_speed.py
 	$(BIN)/python experiments/drifting_line.py --jobs 2
 	$(BIN)/python experiments/slip_jump_pi_rate.py --jobs 2
+	$(BIN)/python experiments/slip_jump_bootstrap_sets.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

@@ -94,6 +94,21 @@ def run(fn: Callable[..., dict], todo: list[tuple], jobs: int) -> pd.DataFrame:
     return pd.DataFrame(list(tqdm(gen, total=len(todo), desc="diagnose", unit="rec")))
 
 
+def stored_or_run(stem: Path, reuse: bool, fn: Callable[..., dict],
+                  todo: Callable[[], list[tuple]], jobs: int,
+                  sort_by: list[str]) -> pd.DataFrame:
+    """An experiment's per-recording table: with ``reuse`` the stored ``stem.csv`` (a
+    one-line exit naming the experiment when it is missing), else ``fn`` on every case of
+    ``todo()`` (:func:`run`), sorted by ``sort_by``."""
+    csv = stem.with_suffix(".csv")
+    if reuse:
+        if not csv.exists():
+            raise SystemExit(f"{stem.name}: {csv} missing (run without --reuse)")
+        return pd.read_csv(csv)
+    df = run(fn, todo(), jobs)
+    return df.sort_values(sort_by, kind="stable").reset_index(drop=True)
+
+
 def generator_module(folder: str):
     """A freshly loaded copy of the independent generator ``experiments/FOLDER/generate.py``
     (its own module object: an experiment may patch its functions)."""

@@ -47,7 +47,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import generator_module, jobs_reuse_args, publish, rate_bars, run  # noqa: E402
+from fresh_recordings import (  # noqa: E402
+    generator_module,
+    jobs_reuse_args,
+    publish,
+    rate_bars,
+    stored_or_run,
+)
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.io import atomic_path, read_recording  # noqa: E402
@@ -247,15 +253,8 @@ def report(df: pd.DataFrame) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv)
-    csv = STEM.with_suffix(".csv")
-    if args.reuse:
-        if not csv.exists():
-            raise SystemExit(f"slip_jump_pi_rate: {csv} missing (run without --reuse)")
-        df = pd.read_csv(csv)
-    else:
-        df = run(one, cases(), args.jobs)
-        df = df.sort_values(["generator", "set", "name", "period"], kind="stable")
-        df = df.reset_index(drop=True)
+    df = stored_or_run(STEM, args.reuse, one, cases, args.jobs,
+                       ["generator", "set", "name", "period"])
     figure(paired(df), STEM.with_suffix(".png"))
     publish(df, report(df), STEM)
     return 0
