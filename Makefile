@@ -113,7 +113,8 @@ concealed: venv
 # record's speed against the order-0 regeneration of branch order0 (order_by_speed), and
 # the oscillatory disturbance's drifting line against the constant sinusoid on fresh sets N
 # and O of both generators and a fresh holdout block (drifting_line), and the PI's period
-# varied on the sets' slow dead-band and stiction loops (slip_jump_pi_rate), and the
+# varied on the sets' slow dead-band and stiction loops (slip_jump_pi_rate), and generator
+# C's level-1 valves re-made three times slower (slip_jump_loop_speed), and the
 # opt-in slip-jump bootstrap on the sets' level-1 valves (slip_jump_bootstrap_sets; about
 # 200 minutes on 2 cores in all)
 BLIND := .cache/blindgen
@@ -143,6 +144,7 @@ independent: venv
 	$(BIN)/python experiments/order_by_speed.py
 	$(BIN)/python experiments/drifting_line.py --jobs 2
 	$(BIN)/python experiments/slip_jump_pi_rate.py --jobs 2
+	$(BIN)/python experiments/slip_jump_loop_speed.py --jobs 2
 	$(BIN)/python experiments/slip_jump_bootstrap_sets.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it

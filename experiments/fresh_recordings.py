@@ -26,7 +26,7 @@ import holdout_family as hf  # noqa: E402
 
 from stictionbench.diagnosis import NominalModel  # noqa: E402
 from stictionbench.io import atomic_path, write_text  # noqa: E402
-from stictionbench.rates import wilson  # noqa: E402
+from stictionbench.rates import mcnemar_p, rate_text, wilson  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 
 FAMILIES = (*cf.FAMILIES, hf.FAMILY)
@@ -107,6 +107,25 @@ def stored_or_run(stem: Path, reuse: bool, fn: Callable[..., dict],
         return pd.read_csv(csv)
     df = run(fn, todo(), jobs)
     return df.sort_values(sort_by, kind="stable").reset_index(drop=True)
+
+
+def valve_verdicts(g: pd.DataFrame, suffix: str) -> dict[str, str]:
+    """Rate texts of ``g``'s verdicts on a valve (``predicted``) and its slip-jump test
+    (``slip_jump_p``): named stiction, named deadband, ``none`` and p < 0.05, each keyed
+    ``"<what>, <suffix>"``."""
+    return {f"{label}, {suffix}": rate_text(int(hit.sum()), len(g))
+            for label, hit in (("named stiction", g.predicted == "stiction"),
+                               ("named deadband", g.predicted == "deadband"),
+                               ("none", g.predicted == "none"),
+                               ("slip-jump p < 0.05", g.slip_jump_p < 0.05))}
+
+
+def paired_change(w: pd.DataFrame, before: object, after: object, label: str) -> dict[str, str]:
+    """``{label: "a / b (McNemar p = …)"}``: of the boolean table ``w`` (a row per loop),
+    the loops true only in column ``after`` and only in column ``before``."""
+    a = int((w[after] & ~w[before]).sum())
+    b = int((w[before] & ~w[after]).sum())
+    return {label: f"{a} / {b} (McNemar p = {mcnemar_p(a, b):.2g})"}
 
 
 def generator_module(folder: str):

@@ -50,9 +50,11 @@ sys.path.insert(0, str(ROOT / "experiments"))
 from fresh_recordings import (  # noqa: E402
     generator_module,
     jobs_reuse_args,
+    paired_change,
     publish,
     rate_bars,
     stored_or_run,
+    valve_verdicts,
 )
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
@@ -137,20 +139,11 @@ def paired(df: pd.DataFrame) -> pd.DataFrame:
 def summary(df: pd.DataFrame) -> pd.DataFrame:
     rows = []
     for (gen, cls), g in df.groupby(["generator", "class"], sort=True):
-        w = g.pivot(index="name", columns="period", values="predicted")
-        fast, slow = w[PERIODS[0]] == "stiction", w[PERIODS[1]] == "stiction"
+        w = g.pivot(index="name", columns="period", values="predicted") == "stiction"
         row = {"generator": gen, "valve (truth)": cls, "loops": len(w)}
         for p in PERIODS:
-            gp = g[g.period == p]
-            for label, hit in (("named stiction", gp.predicted == "stiction"),
-                               ("named deadband", gp.predicted == "deadband"),
-                               ("none", gp.predicted == "none"),
-                               ("slip-jump p < 0.05", gp.slip_jump_p < 0.05)):
-                row[f"{label}, PI {p:g} s"] = rate_text(int(hit.sum()), len(gp))
-        a, b = int((slow & ~fast).sum()), int((fast & ~slow).sum())
-        row["stiction only at 1 s / only at 0.2 s"] = (
-            f"{a} / {b} (McNemar p = {mcnemar_p(a, b):.2g})")
-        rows.append(row)
+            row |= valve_verdicts(g[g.period == p], f"PI {p:g} s")
+        rows.append(row | paired_change(w, *PERIODS, "stiction only at 1 s / only at 0.2 s"))
     return pd.DataFrame(rows)
 
 
