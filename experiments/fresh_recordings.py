@@ -128,6 +128,19 @@ def paired_change(w: pd.DataFrame, before: object, after: object, label: str) ->
     return {label: f"{a} / {b} (McNemar p = {mcnemar_p(a, b):.2g})"}
 
 
+def on_substreams(g, *names: str) -> None:
+    """Make each function ``names`` of the generator module ``g`` (its random generator
+    first) draw from a sub-stream seeded by one draw of the stream it is handed, so every
+    draw after it stays the same however many it makes."""
+    for name in names:
+        fn = getattr(g, name)
+
+        def drawn(rng: np.random.Generator, *a, _fn=fn, **k):
+            return _fn(np.random.default_rng(int(rng.integers(2**62))), *a, **k)
+
+        setattr(g, name, drawn)
+
+
 def generator_module(folder: str):
     """A freshly loaded copy of the independent generator ``experiments/FOLDER/generate.py``
     (its own module object: an experiment may patch its functions)."""

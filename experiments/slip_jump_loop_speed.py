@@ -1,5 +1,5 @@
-"""Is the loop's speed why dead bands are named stiction? Generator C's level-1 dead-band
-and stiction loops re-made three times slower, nothing else changed.
+"""Is the loop's speed why dead bands are named stiction? The independent sets' level-1
+dead-band and stiction loops re-made three times slower, nothing else changed.
 
 Why: ``slip_jump_pi_rate.md`` found that the PI's rate does not change how often a dead
 band is named stiction on the same loops. In the sets, though, the confusions sit on slow
@@ -9,15 +9,21 @@ loops (generator A: 0 of 21 dead bands with τ ≤ 10 s named stiction, 5 of 23 
 Design (written before the run; nothing here changes the package or sets a threshold):
 
 - loops: every level-1 dead-band and stiction recording of generator C's sets C, E, G, I
-  (96). Generator C draws from a stream per purpose, so a change to the loop leaves every
-  other draw as it was;
+  (96) and, added after the first run on generator C alone, of generator A's sets A, B,
+  D, F, H (120), so that the reading is checked on the other generator. Generator C
+  draws from a stream per purpose, so a change to the loop leaves every other draw as it
+  was. Generator A draws from one stream, and its set-point schedule, noise and load are
+  sized by the loop's times, so here they come from sub-streams of one draw each; the
+  valve's S, J or width stay the same. A pair whose gain-margin screen redrew the loop
+  at one speed is dropped;
 - the one change: every time of the loop multiplied by 3. That is the process's τ, its
   second lag and dead time (true and nominal), the PI's integral time, and the tuning's
-  λ and closed-loop time; the load's time constant follows τ. The gains, the PI's period,
+  λ and closed-loop time (generator A: τ, the true and nominal dead times, the integral
+  time and λ); the load's time constant follows τ. The gains, the PI's period,
   the record (3000 s at 1 s), the noise and the valve stay. The loop's shape in its own
   time is the same; the record holds a third as many of its time constants and cycles;
-- factor 1 is the generator unchanged, and it must reproduce the sets' stored verdicts
-  (checked in the report);
+- factor 1 is generator C unchanged, and it must reproduce the sets' stored verdicts
+  (checked in the report); generator A's factor 1 is its sub-stream remake;
 - each recording diagnosed with its model YAML at the package's defaults;
 - reported per class and speed, with Wilson 95 % intervals and McNemar's exact test on
   the pairs: named ``stiction``, named ``deadband``, ``none``, the slip-jump test's p < 0.05,
@@ -26,7 +32,7 @@ Design (written before the run; nothing here changes the package or sets a thres
   stiction more often, and the test rejects J = 0 on them more often.
 
 Output: ``reports/concealed/slip_jump_loop_speed.{md,csv}``. ``--reuse`` re-makes the
-report from the CSV. About 4 minutes on 2 cores.
+report from the CSV. About 8 minutes on 2 cores.
 """
 
 from __future__ import annotations
@@ -44,6 +50,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 from fresh_recordings import (  # noqa: E402
     generator_module,
     jobs_reuse_args,
+    on_substreams,
     paired_change,
     publish,
     stored_or_run,
@@ -56,115 +63,146 @@ from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
 STEM = OUT / "slip_jump_loop_speed"
-SETS = ("c", "e", "g", "i")
+SETS = {"C": ("c", "e", "g", "i"), "A": ("a", "b", "d", "f", "h")}
 CLASSES = ("deadband", "stiction")
 FACTORS = (1.0, 3.0)
-#: generator C's loop entries that are times (s); its gains and the PI's period are not
-TIMES = ("tau", "theta", "ti", "lam", "t_cl", "tau1", "tau2", "theta_t")
+#: each generator's loop entries that are times (s); its gains and the PI's period are not
+TIMES = {"C": ("tau", "theta", "ti", "lam", "t_cl", "tau1", "tau2", "theta_t"),
+         "A": ("tau", "theta", "theta_true", "ti", "lam")}
 
 
 def cases() -> list[tuple]:
-    """``(set, name, seed, class, factor)`` for every recording re-made."""
+    """``(generator, set, name, seed, class, factor)`` for every recording re-made."""
     todo = []
-    for s in SETS:
-        d = pd.read_csv(OUT / f"independent_set_{s}.csv")
-        d = d[d["class"].isin(CLASSES) & (d.level == 1)]
-        todo += [(s, r["name"], int(r.seed), r["class"], f) for _, r in d.iterrows()
-                 for f in FACTORS]
+    for gen, sets in SETS.items():
+        for s in sets:
+            d = pd.read_csv(OUT / f"independent_set_{s}.csv")
+            d = d[d["class"].isin(CLASSES) & (d.level == 1)]
+            todo += [(gen, s, r["name"], int(r.seed), r["class"], f)
+                     for _, r in d.iterrows() for f in FACTORS]
     return todo
+
+
+def _slowed(draw_loop, gen: str, factor: float):
+    def slowed(arg) -> dict:
+        lp = draw_loop(arg)
+        # a loop tuned by no λ rule has λ None: nothing to scale there
+        return lp | {k: lp[k] * factor for k in TIMES[gen] if lp[k] is not None}
+    return slowed
 
 
 def remake(seed: int, cls: str, factor: float, out: Path) -> str:
     """Generator C's level-1 recording of ``cls`` with every time of its loop multiplied by
     ``factor``, written to ``out``; its name."""
     g = generator_module("blind_generator_c")
-    draw_loop = g.draw_loop
-
-    def slowed(seed_: int) -> dict:
-        lp = draw_loop(seed_)
-        return lp | {k: lp[k] * factor for k in TIMES}
-
-    g.draw_loop = slowed
+    g.draw_loop = _slowed(g.draw_loop, "C", factor)
     res = g.make_recording(seed, 1, cls)
     g.write_recording(str(out), res)
     return res["name"]
 
 
-def one(set_: str, name: str, seed: int, cls: str, factor: float) -> dict:
+def remake_a(seed: int, cls: str, factor: float, out: Path, name: str) -> int:
+    """Generator A's level-1 recording of ``cls`` with every time of its loop multiplied by
+    ``factor``, its set point, noise and load from sub-streams, written to ``out`` as
+    ``name``; the loop's draw attempts."""
+    g = generator_module("blind_generator")
+    g.draw_loop = _slowed(g.draw_loop, "A", factor)
+    on_substreams(g, "draw_sp", "draw_noise", "draw_load")
+    res, nominal, tr, _ = g.make_recording(seed, 1, cls)
+    g.write_recording(str(out), name, res, nominal)
+    return int(tr["attempts"])
+
+
+def one(gen: str, set_: str, name: str, seed: int, cls: str, factor: float) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
-        made = remake(seed, cls, factor, Path(tmp))
-        if made != name:
+        attempts = 1
+        if gen == "A":
+            attempts = remake_a(seed, cls, factor, Path(tmp), name)
+        elif remake(seed, cls, factor, Path(tmp)) != name:
             raise RuntimeError(f"generator C seed {seed} does not make {name}")
         rec = read_recording(str(Path(tmp) / f"{name}.csv"), warn=False)
         r = diagnose(rec, load_model(Path(tmp) / f"{name}.model.yaml"))
-    return {"set": set_, "name": name, "seed": seed, "class": cls, "factor": factor,
-            "predicted": r.missing_physics,
+    return {"generator": gen, "set": set_, "name": name, "seed": seed, "class": cls,
+            "factor": factor, "attempts": attempts, "predicted": r.missing_physics,
             "slip_jump_p": r.tests.get("slip_jump_zero", {}).get("p_value"),
             "band_dof": r.details.get("band_dof")}
 
 
+def paired(df: pd.DataFrame) -> pd.DataFrame:
+    """The recordings whose loop was drawn alike at both speeds."""
+    by = df.groupby(["generator", "name"])
+    return df[(by.attempts.transform("nunique") == 1)
+              & (by.factor.transform("nunique") == len(FACTORS))]
+
+
 def summary(df: pd.DataFrame) -> pd.DataFrame:
     rows = []
-    for cls, g in df.groupby("class", sort=True):
+    for (gen, cls), g in df.groupby(["generator", "class"], sort=True):
         w = g.pivot(index="name", columns="factor", values="predicted")
-        row = {"valve (truth)": cls, "loops": len(w)}
+        row = {"generator": gen, "valve (truth)": cls, "loops": len(w)}
         for f in FACTORS:
             gf = g[g.factor == f]
             row[f"band dof (median), ×{f:g}"] = round(float(gf.band_dof.median()), 1)
             row |= valve_verdicts(gf, f"×{f:g}")
+        w_j = g.pivot(index="name", columns="factor", values="slip_jump_p") < 0.05
         rows.append(row | paired_change(w == "stiction", *FACTORS,
-                                        "stiction only slower / only as drawn"))
+                                        "stiction only slower / only as drawn")
+                    | paired_change(w_j, *FACTORS, "J = 0 rejected only slower / only as drawn"))
     return pd.DataFrame(rows)
 
 
 def reproduced(df: pd.DataFrame) -> tuple[int, int]:
-    """Recordings at factor 1 whose verdict is the set's stored one, and how many there are."""
+    """Generator C's recordings at factor 1 whose verdict is the set's stored one, and how
+    many there are."""
     stored = pd.concat([pd.read_csv(OUT / f"independent_set_{s}.csv",
-                                    usecols=["name", "predicted"]) for s in SETS])
-    m = df[df.factor == FACTORS[0]].merge(stored, on="name", suffixes=("", "_stored"),
-                                          validate="one_to_one")
+                                    usecols=["name", "predicted"]) for s in SETS["C"]])
+    m = df[(df.generator == "C") & (df.factor == FACTORS[0])].merge(
+        stored, on="name", suffixes=("", "_stored"), validate="one_to_one")
     return int((m.predicted == m.predicted_stored).sum()), len(m)
 
 
 def report(df: pd.DataFrame) -> str:
     same, n = reproduced(df)
-    s = summary(df).set_index("valve (truth)")
-    d_fast = s.loc["deadband", "named stiction, ×1"]
-    d_slow = s.loc["deadband", "named stiction, ×3"]
-    r_fast = s.loc["deadband", "slip-jump p < 0.05, ×1"]
-    r_slow = s.loc["deadband", "slip-jump p < 0.05, ×3"]
-    k_fast = s.loc["stiction", "slip-jump p < 0.05, ×1"]
-    k_slow = s.loc["stiction", "slip-jump p < 0.05, ×3"]
-    w = df[df["class"] == "deadband"].pivot(index="name", columns="factor",
-                                             values="slip_jump_p") < 0.05
-    rejected = paired_change(w, *FACTORS, "j")["j"]
+    pr = paired(df)
+    s = summary(pr).set_index(["generator", "valve (truth)"])
+    kept = ", ".join(f"generator {g} {pr[pr.generator == g].name.nunique()} of "
+                     f"{df[df.generator == g].name.nunique()} loops" for g in SETS)
+    lines = []
+    for gen in SETS:
+        d, k = s.loc[(gen, "deadband")], s.loc[(gen, "stiction")]
+        lines.append(
+            f"- generator {gen}: true dead bands named stiction {d['named stiction, ×1']} as "
+            f"drawn, {d['named stiction, ×3']} slower; the slip-jump test rejects J = 0 on "
+            f"them in {d['slip-jump p < 0.05, ×1']} and {d['slip-jump p < 0.05, ×3']} (only "
+            f"slower / only as drawn: {d['J = 0 rejected only slower / only as drawn']}), on "
+            f"true sticky valves in {k['slip-jump p < 0.05, ×1']} and "
+            f"{k['slip-jump p < 0.05, ×3']}.")
     return "\n".join([
         "# The loop's speed and the dead bands named stiction", "",
         "Generated by `experiments/slip_jump_loop_speed.py` (the design is in its "
-        "docstring). Generator C's level-1 dead-band and stiction loops of sets C, E, G, I "
-        "are re-made with every time of the loop multiplied by 3 (gains, PI period, record, "
-        "noise and valve kept). Each is diagnosed with its model YAML at the package's "
-        "defaults. Wilson 95 % intervals. Nothing is tuned here.", "",
-        f"The generator unchanged (×1) reproduces the sets' stored verdict on {same} of {n} "
-        "recordings.", "",
+        "docstring). The level-1 dead-band and stiction loops of generator C's sets C, E, "
+        "G, I and generator A's sets A, B, D, F, H are re-made with every time of the loop "
+        "multiplied by 3 (gains, PI period, record, noise and valve kept). Each is "
+        "diagnosed with its model YAML at the package's defaults. Wilson 95 % intervals. "
+        "Nothing is tuned here.", "",
+        f"Generator C unchanged (×1) reproduces the sets' stored verdict on {same} of {n} "
+        "recordings. Generator A's ×1 is its sub-stream remake (the same loop and valve, "
+        f"other noise and load draws). Pairs kept: {kept} "
+        "(a loop redrawn by the gain-margin screen at one speed is dropped).", "",
         to_markdown(s.reset_index()), "",
-        f"- true dead bands named stiction: {d_fast} as drawn, {d_slow} three times slower;",
-        f"- the slip-jump test rejects J = 0 (p < 0.05) on true dead bands in {r_fast} as "
-        f"drawn and {r_slow} slower (only slower / only as drawn: {rejected}); on true "
-        f"sticky valves in {k_fast} and {k_slow}.",
-        "",
+        *lines, "",
         "Reading: a test that tells the two valves apart rejects J = 0 far more often on "
-        "sticky valves than on dead bands. Compare the two rejection rates at each speed: "
-        "where the gap closes on the slower loops, the slip-jump test loses its power to "
-        "discriminate as the record holds fewer of the loop's time constants (fewer "
-        "in-band degrees of freedom). The McNemar column says whether the named-stiction "
-        "change is established at this size.", ""])
+        "sticky valves than on dead bands. Compare the two rejection rates at each speed "
+        "and generator: where the gap closes on the slower loops, the slip-jump test loses "
+        "its power to discriminate as the record holds fewer of the loop's time constants "
+        "(fewer in-band degrees of freedom). The McNemar columns say which changes are "
+        "established at this size.", ""])
 
 
 def main(argv: list[str] | None = None) -> int:
     args = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv)
     df = stored_or_run(STEM, args.reuse, one, cases, args.jobs,
-                       ["set", "name", "factor"])
+                       ["generator", "set", "name", "factor"])
     publish(df, report(df), STEM)
     return 0
 

@@ -50,6 +50,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 from fresh_recordings import (  # noqa: E402
     generator_module,
     jobs_reuse_args,
+    on_substreams,
     paired_change,
     publish,
     rate_bars,
@@ -93,14 +94,9 @@ def _remake_a(seed: int, cls: str, period: float, out: Path, name: str) -> int:
     """Generator A's recording with the PI every ``period`` s, its noise and load from
     sub-streams (one draw each of the main stream); the loop's draw attempts."""
     g = generator_module("blind_generator")
-    draw_loop, draw_noise, draw_load = g.draw_loop, g.draw_noise, g.draw_load
-
-    def sub(rng: np.random.Generator) -> np.random.Generator:
-        return np.random.default_rng(int(rng.integers(2**62)))
-
+    draw_loop = g.draw_loop
     g.draw_loop = lambda rng: draw_loop(rng) | {"Tc": period}
-    g.draw_noise = lambda rng, *a, **k: draw_noise(sub(rng), *a, **k)
-    g.draw_load = lambda rng, *a, **k: draw_load(sub(rng), *a, **k)
+    on_substreams(g, "draw_noise", "draw_load")
     res, nominal, tr, _ = g.make_recording(seed, 1, cls)
     g.write_recording(str(out), name, res, nominal)
     return int(tr["attempts"])

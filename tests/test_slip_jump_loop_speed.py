@@ -37,15 +37,36 @@ def test_remake_scales_the_loops_times_and_nothing_else(tmp_path):
     assert m3["controller"]["ti"] == pytest.approx(3 * m1["controller"]["ti"], rel=0.02)
 
 
+def test_generator_a_remake_scales_the_loops_times(tmp_path):
+    models = {}
+    for f in sls.FACTORS:
+        d = tmp_path / str(f)
+        d.mkdir()
+        assert sls.remake_a(1007, "deadband", f, d, "r") == 1
+        models[f] = yaml.safe_load((d / "r.model.yaml").read_text())
+    m1, m3 = models[1.0], models[3.0]
+    assert m3["process"]["gain"] == m1["process"]["gain"]
+    assert m3["controller"]["kc"] == m1["controller"]["kc"]
+    assert m3["process"]["time_constant"] == pytest.approx(3 * m1["process"]["time_constant"],
+                                                           rel=0.02)
+    assert m3["controller"]["ti"] == pytest.approx(3 * m1["controller"]["ti"], rel=0.02)
+
+
 def test_summary_pairs_the_two_speeds():
     rows = []
     for name, base, slow in (("a", "deadband", "stiction"), ("b", "stiction", "stiction")):
         for f, named in zip(sls.FACTORS, (base, slow), strict=True):
-            rows.append({"set": "c", "name": name, "seed": 1, "class": "deadband",
-                         "factor": f, "predicted": named, "slip_jump_p": 0.01,
+            rows.append({"generator": "C", "set": "c", "name": name, "seed": 1,
+                         "class": "deadband", "factor": f, "attempts": 1,
+                         "predicted": named, "slip_jump_p": 0.01 if f > 1 else 0.5,
                          "band_dof": 100 / f})
-    s = sls.summary(pd.DataFrame(rows)).iloc[0]
+    rows.append(rows[0] | {"name": "redrawn", "attempts": 2})
+    rows.append(rows[1] | {"name": "redrawn"})
+    pr = sls.paired(pd.DataFrame(rows))
+    assert "redrawn" not in set(pr.name)
+    s = sls.summary(pr).iloc[0]
     assert s["named stiction, ×1"].startswith("1/2")
     assert s["named stiction, ×3"].startswith("2/2")
     assert s["stiction only slower / only as drawn"].startswith("1 / 0")
     assert s["band dof (median), ×3"] == pytest.approx(33.3)
+    assert s["J = 0 rejected only slower / only as drawn"].startswith("2 / 0")
