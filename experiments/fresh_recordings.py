@@ -141,6 +141,82 @@ def on_substreams(g, *names: str) -> None:
         setattr(g, name, drawn)
 
 
+#: the folder of each independent generator under ``experiments/``
+GENERATOR_FOLDERS = {"A": "blind_generator", "C": "blind_generator_c"}
+
+
+def remake(gen: str, seed: int, cls: str, out: Path, loop: Callable[[dict], dict],
+           substreams: tuple[str, ...] = (), name: str | None = None,
+           level: int = 1) -> tuple[str, int]:
+    """Generator ``gen``'s (``"A"`` or ``"C"``) recording of ``cls`` at ``level`` re-made
+    from ``seed`` with its drawn loop passed through ``loop``, written (CSV and model
+    YAML) to ``out``: its name and the loop's draw attempts (generator C draws once).
+
+    Generator A draws from one stream: its functions ``substreams`` are put on
+    sub-streams (:func:`on_substreams`) so the draws after them stay the same, and its
+    recording is written as ``name``. Generator C draws a stream per purpose and names
+    its recording itself; a ``name`` given must be the one it makes."""
+    g = generator_module(GENERATOR_FOLDERS[gen])
+    draw_loop = g.draw_loop
+    g.draw_loop = lambda arg: loop(draw_loop(arg))
+    if gen == "A":
+        on_substreams(g, *substreams)
+        res, nominal, tr, _ = g.make_recording(seed, level, cls)
+        g.write_recording(str(out), name, res, nominal)
+        return name, int(tr["attempts"])
+    res = g.make_recording(seed, level, cls)
+    if name is not None and res["name"] != name:
+        raise RuntimeError(f"generator C seed {seed} does not make {name}")
+    g.write_recording(str(out), res)
+    return res["name"], 1
+
+
+def remade_verdict(gen: str, seed: int, cls: str, name: str, loop: Callable[[dict], dict],
+                   substreams: tuple[str, ...] = ()) -> dict:
+    """:func:`remake`'s level-1 recording diagnosed with its model YAML at the package's
+    defaults: the loop's draw attempts, the verdict, the slip-jump test's p-value and the
+    in-band degrees of freedom."""
+    import tempfile
+
+    from stictionbench.diagnosis import diagnose, load_model
+    from stictionbench.io import read_recording
+
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        _, attempts = remake(gen, seed, cls, d, loop, substreams, name)
+        r = diagnose(read_recording(str(d / f"{name}.csv"), warn=False),
+                     load_model(d / f"{name}.model.yaml"))
+    return {"attempts": attempts, "predicted": r.missing_physics,
+            "slip_jump_p": r.tests.get("slip_jump_zero", {}).get("p_value"),
+            "band_dof": r.details.get("band_dof")}
+
+
+def set_cases(sets: dict[str, tuple[str, ...]], classes: tuple[str, ...],
+              variants: tuple, keep: Callable[[pd.Series], bool] | None = None,
+              level: int = 1) -> list[tuple]:
+    """``(generator, set, name, seed, class, variant)`` for every recording of ``classes``
+    at ``level`` in the independent sets ``sets`` (generator → its sets, read from their
+    stored ``reports/concealed/independent_set_S.csv``) that ``keep`` accepts, once per
+    variant."""
+    todo = []
+    for gen, names in sets.items():
+        for s in names:
+            d = pd.read_csv(ROOT / "reports" / "concealed" / f"independent_set_{s}.csv")
+            d = d[d["class"].isin(classes) & (d.level == level)]
+            todo += [(gen, s, r["name"], int(r.seed), r["class"], v)
+                     for _, r in d.iterrows() if keep is None or keep(r) for v in variants]
+    return todo
+
+
+def drawn_alike(df: pd.DataFrame, column: str) -> pd.DataFrame:
+    """The rows of loops (``generator``, ``name``) present at every value of ``column``
+    and drawn in as many attempts at each (a loop a screen redrew at one value is not the
+    same loop)."""
+    by = df.groupby(["generator", "name"])
+    return df[(by.attempts.transform("nunique") == 1)
+              & (by[column].transform("nunique") == df[column].nunique())]
+
+
 def generator_module(folder: str):
     """A freshly loaded copy of the independent generator ``experiments/FOLDER/generate.py``
     (its own module object: an experiment may patch its functions)."""

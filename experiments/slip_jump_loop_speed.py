@@ -38,7 +38,6 @@ report from the CSV. About 8 minutes on 2 cores.
 from __future__ import annotations
 
 import sys
-import tempfile
 from pathlib import Path
 
 import pandas as pd
@@ -48,17 +47,17 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fresh_recordings import (  # noqa: E402
-    generator_module,
+    drawn_alike,
     jobs_reuse_args,
-    on_substreams,
     paired_change,
     publish,
+    remade_verdict,
+    set_cases,
     stored_or_run,
     valve_verdicts,
 )
+from fresh_recordings import remake as fresh_remake  # noqa: E402
 
-from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
-from stictionbench.io import read_recording  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
@@ -73,66 +72,38 @@ TIMES = {"C": ("tau", "theta", "ti", "lam", "t_cl", "tau1", "tau2", "theta_t"),
 
 def cases() -> list[tuple]:
     """``(generator, set, name, seed, class, factor)`` for every recording re-made."""
-    todo = []
-    for gen, sets in SETS.items():
-        for s in sets:
-            d = pd.read_csv(OUT / f"independent_set_{s}.csv")
-            d = d[d["class"].isin(CLASSES) & (d.level == 1)]
-            todo += [(gen, s, r["name"], int(r.seed), r["class"], f)
-                     for _, r in d.iterrows() for f in FACTORS]
-    return todo
+    return set_cases(SETS, CLASSES, FACTORS)
 
 
-def _slowed(draw_loop, gen: str, factor: float):
-    def slowed(arg) -> dict:
-        lp = draw_loop(arg)
+#: generator A's draws sized by the loop's times, put on sub-streams
+SUBSTREAMS = ("draw_sp", "draw_noise", "draw_load")
+
+
+def slowed(gen: str, factor: float):
+    """The loop patch: every time of generator ``gen``'s loop multiplied by ``factor``."""
+    def patch(lp: dict) -> dict:
         # a loop tuned by no λ rule has λ None: nothing to scale there
         return lp | {k: lp[k] * factor for k in TIMES[gen] if lp[k] is not None}
-    return slowed
+    return patch
 
 
-def remake(seed: int, cls: str, factor: float, out: Path) -> str:
-    """Generator C's level-1 recording of ``cls`` with every time of its loop multiplied by
-    ``factor``, written to ``out``; its name."""
-    g = generator_module("blind_generator_c")
-    g.draw_loop = _slowed(g.draw_loop, "C", factor)
-    res = g.make_recording(seed, 1, cls)
-    g.write_recording(str(out), res)
-    return res["name"]
-
-
-def remake_a(seed: int, cls: str, factor: float, out: Path, name: str) -> int:
-    """Generator A's level-1 recording of ``cls`` with every time of its loop multiplied by
-    ``factor``, its set point, noise and load from sub-streams, written to ``out`` as
-    ``name``; the loop's draw attempts."""
-    g = generator_module("blind_generator")
-    g.draw_loop = _slowed(g.draw_loop, "A", factor)
-    on_substreams(g, "draw_sp", "draw_noise", "draw_load")
-    res, nominal, tr, _ = g.make_recording(seed, 1, cls)
-    g.write_recording(str(out), name, res, nominal)
-    return int(tr["attempts"])
+def remake(gen: str, seed: int, cls: str, factor: float, out: Path,
+           name: str | None = None) -> tuple[str, int]:
+    """The level-1 recording of ``cls`` with every time of its loop multiplied by
+    ``factor`` (generator A: its set point, noise and load from sub-streams), written to
+    ``out``: its name and the loop's draw attempts."""
+    return fresh_remake(gen, seed, cls, out, slowed(gen, factor), SUBSTREAMS, name)
 
 
 def one(gen: str, set_: str, name: str, seed: int, cls: str, factor: float) -> dict:
-    with tempfile.TemporaryDirectory() as tmp:
-        attempts = 1
-        if gen == "A":
-            attempts = remake_a(seed, cls, factor, Path(tmp), name)
-        elif remake(seed, cls, factor, Path(tmp)) != name:
-            raise RuntimeError(f"generator C seed {seed} does not make {name}")
-        rec = read_recording(str(Path(tmp) / f"{name}.csv"), warn=False)
-        r = diagnose(rec, load_model(Path(tmp) / f"{name}.model.yaml"))
+    r = remade_verdict(gen, seed, cls, name, slowed(gen, factor), SUBSTREAMS)
     return {"generator": gen, "set": set_, "name": name, "seed": seed, "class": cls,
-            "factor": factor, "attempts": attempts, "predicted": r.missing_physics,
-            "slip_jump_p": r.tests.get("slip_jump_zero", {}).get("p_value"),
-            "band_dof": r.details.get("band_dof")}
+            "factor": factor, **r}
 
 
 def paired(df: pd.DataFrame) -> pd.DataFrame:
     """The recordings whose loop was drawn alike at both speeds."""
-    by = df.groupby(["generator", "name"])
-    return df[(by.attempts.transform("nunique") == 1)
-              & (by.factor.transform("nunique") == len(FACTORS))]
+    return drawn_alike(df, "factor")
 
 
 def summary(df: pd.DataFrame) -> pd.DataFrame:

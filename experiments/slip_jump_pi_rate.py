@@ -37,7 +37,6 @@ report from the CSV. About 7 minutes on 2 cores.
 from __future__ import annotations
 
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -48,18 +47,19 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fresh_recordings import (  # noqa: E402
-    generator_module,
+    drawn_alike,
     jobs_reuse_args,
-    on_substreams,
     paired_change,
     publish,
     rate_bars,
+    remade_verdict,
+    set_cases,
     stored_or_run,
     valve_verdicts,
 )
+from fresh_recordings import remake as fresh_remake  # noqa: E402
 
-from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
-from stictionbench.io import atomic_path, read_recording  # noqa: E402
+from stictionbench.io import atomic_path  # noqa: E402
 from stictionbench.rates import mcnemar_p, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
@@ -78,58 +78,33 @@ def _true_tau(row: pd.Series) -> float:
 
 def cases() -> list[tuple]:
     """``(generator, set, name, seed, class, period)`` for every recording re-made."""
-    todo = []
-    for gen, sets in SETS.items():
-        for s in sets:
-            d = pd.read_csv(OUT / f"independent_set_{s}.csv")
-            d = d[d["class"].isin(CLASSES) & (d.level == 1)]
-            for _, row in d.iterrows():
-                if _true_tau(row) >= MIN_TAU:
-                    todo += [(gen, s, row["name"], int(row.seed), row["class"], p)
-                             for p in PERIODS]
-    return todo
+    return set_cases(SETS, CLASSES, PERIODS, keep=lambda row: _true_tau(row) >= MIN_TAU)
 
 
-def _remake_a(seed: int, cls: str, period: float, out: Path, name: str) -> int:
-    """Generator A's recording with the PI every ``period`` s, its noise and load from
-    sub-streams (one draw each of the main stream); the loop's draw attempts."""
-    g = generator_module("blind_generator")
-    draw_loop = g.draw_loop
-    g.draw_loop = lambda rng: draw_loop(rng) | {"Tc": period}
-    on_substreams(g, "draw_noise", "draw_load")
-    res, nominal, tr, _ = g.make_recording(seed, 1, cls)
-    g.write_recording(str(out), name, res, nominal)
-    return int(tr["attempts"])
+#: generator A's draws sized by the controller's grid, put on sub-streams
+SUBSTREAMS = ("draw_noise", "draw_load")
 
 
-def _remake_c(seed: int, cls: str, period: float, out: Path, name: str) -> int:
-    g = generator_module("blind_generator_c")
-    draw_loop = g.draw_loop
-    g.draw_loop = lambda seed_: draw_loop(seed_) | {"tc": period}
-    res = g.make_recording(seed, 1, cls)
-    if res["name"] != name:
-        raise RuntimeError(f"generator C seed {seed} does not make {name}")
-    g.write_recording(str(out), res)
-    return 1
+def remake(gen: str, seed: int, cls: str, period: float, out: Path, name: str) -> int:
+    """The recording with the PI every ``period`` s (generator A: its noise and load from
+    sub-streams), written to ``out``; the loop's draw attempts."""
+    key = "Tc" if gen == "A" else "tc"
+    return fresh_remake(gen, seed, cls, out, lambda lp: lp | {key: period}, SUBSTREAMS,
+                        name)[1]
 
 
 def one(gen: str, set_: str, name: str, seed: int, cls: str, period: float) -> dict:
     """One recording re-made at ``period`` and diagnosed with its model YAML."""
-    with tempfile.TemporaryDirectory() as tmp:
-        d = Path(tmp)
-        attempts = (_remake_a if gen == "A" else _remake_c)(seed, cls, period, d, name)
-        rec = read_recording(str(d / f"{name}.csv"), warn=False)
-        r = diagnose(rec, load_model(d / f"{name}.model.yaml"))
+    key = "Tc" if gen == "A" else "tc"
+    r = remade_verdict(gen, seed, cls, name, lambda lp: lp | {key: period}, SUBSTREAMS)
     return {"generator": gen, "set": set_, "name": name, "seed": seed, "class": cls,
-            "period": period, "attempts": attempts, "predicted": r.missing_physics,
-            "slip_jump_p": r.tests.get("slip_jump_zero", {}).get("p_value")}
+            "period": period, "attempts": r["attempts"], "predicted": r["predicted"],
+            "slip_jump_p": r["slip_jump_p"]}
 
 
 def paired(df: pd.DataFrame) -> pd.DataFrame:
     """The recordings whose loop was drawn alike at both periods."""
-    n = df.groupby(["generator", "name"]).attempts.transform("nunique")
-    k = df.groupby(["generator", "name"]).period.transform("nunique")
-    return df[(n == 1) & (k == len(PERIODS))]
+    return drawn_alike(df, "period")
 
 
 def summary(df: pd.DataFrame) -> pd.DataFrame:

@@ -24,7 +24,7 @@ def test_remake_scales_the_loops_times_and_nothing_else(tmp_path):
     for f in sls.FACTORS:
         d = tmp_path / str(f)
         d.mkdir()
-        name = sls.remake(7103, "deadband", f, d)
+        name, _ = sls.remake("C", 7103, "deadband", f, d)
         got[f] = (name, pd.read_csv(d / f"{name}.csv"),
                   yaml.safe_load((d / f"{name}.model.yaml").read_text()))
     (n1, r1, m1), (n3, r3, m3) = got[1.0], got[3.0]
@@ -42,7 +42,7 @@ def test_generator_a_remake_scales_the_loops_times(tmp_path):
     for f in sls.FACTORS:
         d = tmp_path / str(f)
         d.mkdir()
-        assert sls.remake_a(1007, "deadband", f, d, "r") == 1
+        assert sls.remake("A", 1007, "deadband", f, d, "r") == ("r", 1)
         models[f] = yaml.safe_load((d / "r.model.yaml").read_text())
     m1, m3 = models[1.0], models[3.0]
     assert m3["process"]["gain"] == m1["process"]["gain"]

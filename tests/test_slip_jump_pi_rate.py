@@ -21,7 +21,7 @@ def test_generator_a_remake_changes_only_the_pi_period(tmp_path):
     for period in sjr.PERIODS:
         d = tmp_path / str(period)
         d.mkdir()
-        attempts = sjr._remake_a(1007, "deadband", period, d, "r")
+        attempts = sjr.remake("A", 1007, "deadband", period, d, "r")
         got[period] = (pd.read_csv(d / "r.csv"), yaml.safe_load((d / "r.model.yaml").read_text()),
                        attempts)
     (fast, m_fast, a_fast), (slow, m_slow, a_slow) = got[0.2], got[1.0]
