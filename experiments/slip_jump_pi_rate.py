@@ -188,7 +188,8 @@ def report(df: pd.DataFrame) -> str:
         "is not the cause. (The holdout family's candidate in slip_jump_calibration.md, a "
         "play operator stepped at 0.1 s under a PI at 1 s, is not varied here.) In the "
         "sets the confusions sit on slow loops (the table by τ), and the rate was drawn "
-        "with the loop's speed; the loop's speed itself is not varied here."
+        "with the loop's speed, which is not varied here; [slip_jump_loop_speed.md]"
+        "(slip_jump_loop_speed.md) varies it on the same generators."
         if p_dead >= 0.05 else
         "On the same loops a dead band is named stiction more or less often with the PI's "
         "rate alone (p < 0.05), so the rate is a cause.")
