@@ -115,8 +115,9 @@ concealed: venv
 # and O of both generators and a fresh holdout block (drifting_line), and the PI's period
 # varied on the sets' slow dead-band and stiction loops (slip_jump_pi_rate), and generator
 # C's level-1 valves re-made three times slower (slip_jump_loop_speed), and the
-# opt-in slip-jump bootstrap on the sets' level-1 valves (slip_jump_bootstrap_sets; about
-# 200 minutes on 2 cores in all)
+# opt-in slip-jump bootstrap on the sets' level-1 valves (slip_jump_bootstrap_sets), and
+# the alternative decision rules re-decided on the sets' stored evidence (decision_rules;
+# about 200 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -130,6 +131,7 @@ independent: venv
 		$(BIN)/python experiments/independent_set.py --data $(BLIND)/set_$$set \
 			--name independent_set_$$set --jobs 2 || exit $$?; \
 	done
+	$(BIN)/python experiments/decision_rules.py
 	$(BIN)/python experiments/line_confinement.py --jobs 2
 	$(BIN)/python experiments/setpoint_gain.py --jobs 2
 	$(BIN)/python experiments/snapshot_op.py --loops 48 --jobs 2

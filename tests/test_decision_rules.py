@@ -234,3 +234,41 @@ def test_stored_rows_are_re_decided_with_the_checks_after_the_comparison():
     assert gain == "valve_characteristic"
     assert concealed.after_comparison(pd.Series({"gain_flagged": True}), "stiction") == \
         "stiction"
+
+
+def _line_row(p_value: float, p_k_step: float) -> pd.Series:
+    ev = [{"physics": "none", "p_value": 1.0, "improvement": 0.0, "score": 9.0,
+           "at_bound": False, "parameters": {}, "p_k_step": 1.0},
+          {"physics": "oscillatory_disturbance", "p_value": p_value, "improvement": 0.3,
+           "score": 0.0, "at_bound": False, "parameters": {"period": 500.0},
+           "p_k_step": p_k_step}]
+    return pd.Series({"evidence": json.dumps(ev), "slip_jump_p": float("nan"),
+                      "dead_time_own_resolution": True, "class": "none", "level": 1})
+
+
+def test_line_kstep_names_a_line_only_where_its_kstep_test_also_rejects():
+    # the shipped test takes the smaller p-value: a line that only the one-step test
+    # supports is named there, and not by the alternative
+    assert dr.shipped(_line_row(1e-6, 0.2)) == "oscillatory_disturbance"
+    assert dr.line_kstep(_line_row(1e-6, 0.2)) == "none"
+    assert dr.line_kstep(_line_row(1e-6, 0.01)) == "oscillatory_disturbance"
+
+
+def test_every_alternative_applies_the_line_test_as_the_shipped_rule_does():
+    row = _row(lag_improvement=0.2)
+    # the lag's improvement lies at the residual's line: the line test renames it
+    row["line_shares"] = json.dumps({"sensor_lag": 1.5})
+    assert dr.shipped(row) == "oscillatory_disturbance"
+    assert dr.winner_gated(row) == "oscillatory_disturbance"
+    assert dr.line_kstep(row) == "oscillatory_disturbance"
+
+
+def test_read_benchmark_pools_files_and_wants_every_one(tmp_path, monkeypatch):
+    monkeypatch.setattr(dr, "OUT", tmp_path)
+    pd.DataFrame({"class": ["none"], "level": [1]}).to_csv(tmp_path / "x.csv", index=False)
+    pd.DataFrame({"class": ["stiction"], "level": [2]}).to_csv(tmp_path / "y.csv",
+                                                               index=False)
+    both = dr.read_benchmark(("x.csv", "y.csv"))
+    assert list(both["class"]) == ["none", "stiction"]
+    assert list(dr.read_benchmark("x.csv")["class"]) == ["none"]
+    assert dr.read_benchmark(("x.csv", "z.csv")) is None
