@@ -151,11 +151,16 @@ independent: venv
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor
-# between these sets and the judged set the issue scored it on (about 65 minutes on 2
-# cores the first time; verdicts cached per recording in .cache/first_release)
+# between these sets and the judged set the issue scored it on; then on the holdout
+# family's fresh block, and on six of its blocks pooled beside the verdicts of `make
+# holdout-pooled` (about 2 hours on 2 cores the first time; verdicts cached per recording
+# in .cache/first_release)
+FIRST_BLOCKS := 21000 22000 23000 24000 25000 26000
 first-release: venv
 	$(BIN)/python experiments/first_release.py --jobs 2
 	$(BIN)/python experiments/first_release_holdout.py --jobs 2
+	$(BIN)/python experiments/first_release_holdout.py --today reports/concealed/holdout_pooled.csv \
+		--blocks $(FIRST_BLOCKS) --name first_release_holdout_pooled --jobs 2
 
 # the holdout family pooled over its seed blocks at the current comparison band (22 x 216
 # recordings, re-run by the shipped code; block CSVs cached in .cache/holdout_blocks), the

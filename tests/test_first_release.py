@@ -155,3 +155,36 @@ def test_holdout_anchor_writes_the_recordings_of_holdout_fresh(tmp_path, monkeyp
                                 "holdout_sync_L2_none_21000", "holdout_sync_L2_deadband_21000"]
     for n in block.name:
         assert (tmp_path / f"{n}.csv").is_file() and (tmp_path / f"{n}.model.yaml").is_file()
+
+
+def test_holdout_anchor_writes_any_block_and_marks_it(tmp_path, monkeypatch):
+    import first_release_holdout as frh
+
+    monkeypatch.setattr(frh, "SEEDS", 1)
+    monkeypatch.setattr(frh, "NONE_SEEDS", 1)
+    monkeypatch.setattr(frh, "CLASSES", ["stiction"])
+    block = frh.write_block(tmp_path, 22000)
+    assert list(block.name) == ["holdout_sync_L1_stiction_22000",
+                                "holdout_sync_L2_stiction_22000"]
+    assert set(block.block) == {22000}
+
+
+def test_holdout_anchor_cells_split_each_class_by_the_first_release():
+    import first_release_holdout as frh
+
+    df = pd.DataFrame({"level": [1] * 4, "class": ["deadband"] * 4,
+                       "first": ["deadband", "deadband", "stiction", "stiction"],
+                       "predicted": ["deadband", "none", "deadband", "deadband"]})
+    row = frh.cells(df).iloc[0]
+    assert row["today, where the first release was right"].startswith("1/2")
+    assert row["today, where the first release missed"].startswith("2/2")
+    # the judged set: one level-1 dead band named right by the first release, one missed
+    assert (row["judged set: first release right"], row["judged set: first release missed"]) \
+        == (1, 1)
+
+
+def test_holdout_anchor_refuses_a_block_that_is_not_a_first_seed(capsys):
+    import first_release_holdout as frh
+
+    assert frh.main(["--blocks", "21500"]) == 2
+    assert "multiples of 1000" in capsys.readouterr().err
