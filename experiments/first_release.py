@@ -75,6 +75,8 @@ JUDGED_RIGHT = {
         "valve_characteristic": 2, "saturation": 1, "oscillatory_disturbance": 1},
     2: {"none": 2, "stiction": 1, "deadband": 1, "sensor_lag": 1, "dead_time": 0,
         "valve_characteristic": 0, "saturation": 2, "oscillatory_disturbance": 0}}
+#: recordings per class and level in the judged set (8 classes × 2 per level)
+JUDGED_PER_CLASS = 2
 #: posterior draws of the projection, and their seed
 DRAWS, SEED = 20000, 10
 #: the issue's goals (of 16, per level)
@@ -147,7 +149,8 @@ def diagnose_first(code: str, data: str, work: str, name: str) -> dict:
     return {"name": name, "first": out["missing_physics"], "first_error": ""}
 
 
-def tail_at_least(counts: list[tuple[int, int]], k: int, per_class: int = 2) -> float:
+def tail_at_least(counts: list[tuple[int, int]], k: int,
+                  per_class: int = JUDGED_PER_CLASS) -> float:
     """P(at least ``k`` right) on a set of ``per_class`` recordings per class, for a
     diagnosis that named ``(right, of)`` in each class of another set: each class's rate
     under Jeffreys' prior Beta(1/2, 1/2), so its posterior predictive is beta-binomial
@@ -168,7 +171,8 @@ def tail_at_least(counts: list[tuple[int, int]], k: int, per_class: int = 2) -> 
     return float(dist[k:].sum())
 
 
-def projected(df: pd.DataFrame, judged_right: dict[str, int], per_class: int = 2,
+def projected(df: pd.DataFrame, judged_right: dict[str, int],
+              per_class: int = JUDGED_PER_CLASS,
               draws: int = DRAWS, seed: int = SEED) -> np.ndarray:
     """Draws of today's score of 16 on the judged set, projected through the first
     release: per class, today's rate on recordings the first release named right and on

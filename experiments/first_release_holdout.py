@@ -113,7 +113,7 @@ def cells(df: pd.DataFrame) -> pd.DataFrame:
                     "judged set: first release right": right,
                     "today, where the first release missed": rate_text(
                         int(ok[~hit].sum()), int((~hit).sum())),
-                    "judged set: first release missed": 2 - right})
+                    "judged set: first release missed": fr.JUDGED_PER_CLASS - right})
     return pd.DataFrame(out)
 
 
@@ -178,7 +178,8 @@ def main(argv: list[str] | None = None) -> int:
             "how many of each the judged set holds (the issue's misses).", "",
             to_markdown(cells(df)), ""]),
         "Reading: where the first release's judged scores are likely on a set as hard as "
-        "this block, the block is a nearer stand-in for the judged set than the "
+        f"{'this block, the block is' if a.blocks == [BLOCK] else 'these blocks, they are'} "
+        "a nearer stand-in for the judged set than the "
         "independent sets (`first_release.md`), and the projection through it the nearer "
         "estimate of what today's diagnosis would score there.", "",
         f"The first release refused {int((df['first'] == 'error').sum())} of {len(df)} "
