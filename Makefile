@@ -116,8 +116,9 @@ concealed: venv
 # varied on the sets' slow dead-band and stiction loops (slip_jump_pi_rate), and generator
 # C's level-1 valves re-made three times slower (slip_jump_loop_speed), and the
 # opt-in slip-jump bootstrap on the sets' level-1 valves (slip_jump_bootstrap_sets), and
-# the alternative decision rules re-decided on the sets' stored evidence (decision_rules;
-# about 200 minutes on 2 cores in all)
+# the alternative decision rules re-decided on the sets' stored evidence (decision_rules),
+# and the healthy loops' slow-line false alarms checked by varying the validation blocks'
+# layout and the load (block_layout; about 225 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -148,6 +149,7 @@ independent: venv
 	$(BIN)/python experiments/slip_jump_pi_rate.py --jobs 2
 	$(BIN)/python experiments/slip_jump_loop_speed.py --jobs 2
 	$(BIN)/python experiments/slip_jump_bootstrap_sets.py --jobs 2
+	$(BIN)/python experiments/block_layout.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

@@ -6,7 +6,7 @@ and "p ≥ 0.05": the fitted limit is often right (``holdout_sync_L2_saturation_
 59.43 against a true 59.47) and still improves nothing on the validation blocks. A travel
 limit acts only while OP is beyond it, and under a drifting load OP visits its extremes in
 a few episodes. ``diagnose`` fits on blocks 1, 3, 5 of five and tests on blocks 2 and 4
-(:data:`stictionbench.diagnosis.diagnose.N_BLOCKS`); if the episodes fall in the training
+(:data:`stictionbench.diagnosis.blocks.N_BLOCKS`); if the episodes fall in the training
 blocks only, the validation blocks hold no sample where the hypothesis differs from the
 nominal model, and no out-of-sample test can name it.
 
@@ -51,7 +51,8 @@ sys.path.insert(0, str(ROOT / "experiments"))
 from fresh_recordings import run  # noqa: E402
 from holdout_family import generate  # noqa: E402
 
-from stictionbench.diagnosis import load_model  # noqa: E402
+from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
+from stictionbench.diagnosis.blocks import N_BLOCKS  # noqa: E402
 from stictionbench.io import read_recording, write_text  # noqa: E402
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
@@ -72,7 +73,6 @@ TRIM_S = 600.0
 
 def one(level: int, seed: int) -> dict:
     """Diagnose one saturation recording under each split; count OP beyond the limit."""
-    dmod = sys.modules["stictionbench.diagnosis.diagnose"]
     with tempfile.TemporaryDirectory() as tmp:  # the files a user would give
         job = generate("saturation", level, seed, Path(tmp))
         rec = read_recording(job["csv"], warn=False)
@@ -82,27 +82,23 @@ def one(level: int, seed: int) -> dict:
            "noise_frac": job["noise_frac"], "op_high": limit}
     op = np.asarray(rec.OP, float)
     beyond = op > limit
-    shipped = dmod.N_BLOCKS
-    try:
-        for n_blocks in SPLITS:
-            dmod.N_BLOCKS = n_blocks
-            d = dmod.diagnose(rec, model)
-            train, val = _split(rec, d)
-            row[f"share_train_{n_blocks}"] = float(beyond[train].mean())
-            row[f"share_val_{n_blocks}"] = float(beyond[val].mean())
-            sat = {r["physics"]: r for r in d.ranking}["saturation"]
-            row[f"verdict_{n_blocks}"] = d.missing_physics
-            row[f"p_{n_blocks}"] = sat["p_value"]
-            row[f"improvement_{n_blocks}"] = sat["improvement"]
-            if n_blocks == shipped:
-                row["share_start"] = float(beyond[:d.burn].mean())
-    finally:
-        dmod.N_BLOCKS = shipped
+    shipped = N_BLOCKS
+    for n_blocks in SPLITS:
+        d = diagnose(rec, model, n_blocks=n_blocks)
+        train, val = _split(rec, d)
+        row[f"share_train_{n_blocks}"] = float(beyond[train].mean())
+        row[f"share_val_{n_blocks}"] = float(beyond[val].mean())
+        sat = {r["physics"]: r for r in d.ranking}["saturation"]
+        row[f"verdict_{n_blocks}"] = d.missing_physics
+        row[f"p_{n_blocks}"] = sat["p_value"]
+        row[f"improvement_{n_blocks}"] = sat["improvement"]
+        if n_blocks == shipped:
+            row["share_start"] = float(beyond[:d.burn].mean())
     # the start-up removed: the record from TRIM_S on, diagnosed with the shipped split
     k = int(np.searchsorted(rec.t - rec.t[0], TRIM_S))
     trimmed = Recording.from_arrays(rec.t[k:], rec.PV[k:], rec.OP[k:], SP=rec.SP[k:],
                                     warn=False)
-    row["verdict_trimmed"] = dmod.diagnose(trimmed, model).missing_physics
+    row["verdict_trimmed"] = diagnose(trimmed, model).missing_physics
     return row
 
 

@@ -43,6 +43,7 @@ import numpy as np
 from ..errors import InputError
 from ..op_range import infer_op_range
 from ..recording import Recording
+from .blocks import LAYOUTS, N_BLOCKS, split_blocks
 from .cycle import CycleCheck, check_cycle
 from .detectability import minimum_detectable
 from .evidence import (
@@ -96,7 +97,6 @@ __all__ = ["Diagnosis", "closed_loop_replay", "compare", "cycle_evidence", "diag
            "after_comparison",
            "name_held_limit", "own_resolution", "validate", "valve_output"]
 
-N_BLOCKS = 5
 
 #: a given time constant beyond this many record lengths leaves no part of the response
 #: in the record (its band corner falls below the record's lowest frequency by as much);
@@ -169,6 +169,9 @@ class Comparison:
     #: the slow-load high-pass as a fraction of ``1/(2π(τ+θ))``, shared by the
     #: hypotheses' fits and the valve identification (:func:`_identify_valve`)
     hp_factor: float = HP_FACTOR
+    #: the blocks' number and layout (:func:`.blocks.split_blocks`), shared likewise
+    n_blocks: int = N_BLOCKS
+    block_layout: str = "interleaved"
 
 
 @dataclass
@@ -240,14 +243,17 @@ def _fit_aligned(cmp_prob: Problem, h, shifts: list[float]) -> Fit:
 def compare(rec: Recording, model: NominalModel | None = None, *,
             hp_factor: float = HP_FACTOR,
             lp_factor: float = 5.0, pem: bool = True,
-            op_range: tuple[float, float] | None = None) -> Comparison:
+            op_range: tuple[float, float] | None = None, n_blocks: int = N_BLOCKS,
+            block_layout: str = "interleaved") -> Comparison:
     """Stage 1: the nominal model (given, or identified FOPDT) replayed from the recorded
     OP, its training/validation split and its output-error fit (see the module
     docstring). ``pem`` (default) asks :func:`fit` to refit every hypothesis by its
     one-step prediction errors; ``pem=False`` keeps the output-error fits (the earlier
     method, for comparison: ``experiments/concealed.py --output-error``). ``op_range``
     (OP's 0 and 100 %) overrides the model's and the one recognised from the data
-    (:mod:`.op_range`)."""
+    (:mod:`.op_range`). ``n_blocks`` and ``block_layout`` cut the record after the burn-in
+    into training and validation blocks (:func:`.blocks.split_blocks`; default five,
+    interleaved)."""
     _check(rec)
     model = _nominal_model(rec, model, hp_factor)
     n, Ts = len(rec), rec.Ts
@@ -266,18 +272,17 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
     f_lp = lowpass_corner(Ts, tau, lp_factor, oscillation_frequency(
         band(np.asarray(rec.PV, float), Ts, f_hp), Ts))
     burn = min(int(math.ceil((theta + 3 * tau) / Ts)), n // 5)
-    edges = np.linspace(burn, n, N_BLOCKS + 1).round().astype(int)
+    split = split_blocks(n, burn, n_blocks, block_layout)
+    edges = split.edges
     if edges[1] - edges[0] < 40:
         raise InputError(f"{rec.meta.get('source', 'recording')}: too short for the "
                          f"model's time scales (θ + 3τ = {theta + 3 * tau:g} s)")
-    blocks = [np.arange(edges[i], edges[i + 1]) for i in range(N_BLOCKS)]
     t = np.asarray(rec.t, float) - float(rec.t[0])
     ctx = Context(t, np.asarray(rec.OP, float), np.asarray(rec.PV, float),
                   Ts, tau, theta, f_hp, f_lp=f_lp, model_given=model.source == "given",
                   op_range=op_range or model.op_range or infer_op_range(rec.OP),
-                  block_times=tuple(float(t[min(e, n - 1)]) for e in edges))
-    prob = Problem(ctx, f_hp, np.concatenate(blocks[0::2]), np.concatenate(blocks[1::2]),
-                   f_lp)
+                  block_times=tuple(float(t[min(e, n - 1)]) for e in split.knot_edges))
+    prob = Problem(ctx, f_hp, split.train, split.val, f_lp)
     # the recording convention (OP stored before or after the controller executed, a
     # controller faster than the historian) moves the apparent dead time by up to a
     # sample: the nominal model is aligned on a quarter-sample grid within ±1 sample,
@@ -292,9 +297,10 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
         nominal = _fit_aligned(prob, Nominal(), align)
     s0 = nominal.extra["timing_shift_s"]
     shifts = [s for s in (s0, s0 - 0.5 * Ts, s0 + 0.5 * Ts) if theta + s >= 0]
-    val_blocks = [[float(rec.t[b[0]]), float(rec.t[b[-1]])] for b in blocks[1::2]]
+    val_blocks = [[float(rec.t[b[0]]), float(rec.t[b[-1]])]
+                  for b in np.split(split.val, np.flatnonzero(np.diff(split.val) > 1) + 1)]
     return Comparison(rec, model, ctx, prob, burn, int(edges[1]), val_blocks, shifts,
-                      nominal, pem, hp_factor)
+                      nominal, pem, hp_factor, int(n_blocks), block_layout)
 
 
 def _band_for_residual_line(ctx: Context, nominal: Fit, burn: int,
@@ -378,7 +384,8 @@ def _identify_valve(cmp: Comparison, alpha: float) -> HammersteinResult:
     shift = 0.0 if given else cmp.nominal.extra.get("timing_shift_s", 0.0)
     theta = max(m.dead_time + shift, 0.0)
     return fit_hammerstein(cmp.rec, alpha=alpha, linear=(m.gain, m.time_constant, theta),
-                           fix_process=given, hp_factor=cmp.hp_factor)
+                           fix_process=given, hp_factor=cmp.hp_factor,
+                           n_blocks=cmp.n_blocks, block_layout=cmp.block_layout)
 
 
 def _adopt_linear(cmp: Comparison, h: HammersteinResult) -> bool:
@@ -666,7 +673,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              pem: bool = True, op_range: tuple[float, float] | None = None,
              slip_jump_bootstrap: int = 0, bootstrap_seed: int = 0,
              linear_input_gate: bool = True, test_highpass_order: int = 2,
-             detectability: bool = True) -> Diagnosis:
+             detectability: bool = True, n_blocks: int = N_BLOCKS,
+             block_layout: str = "interleaved") -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -723,6 +731,12 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         dead-time change, sensor lag, dead band and stiction ``S`` this record's tests
         would have seen (:mod:`.detectability`; ``reports/concealed/
         detectable_effects.md`` checks it against known truth). Default on.
+    n_blocks, block_layout : int, str
+        The record after the burn-in cut into ``n_blocks`` equal blocks (default five),
+        assigned to training and validation by ``block_layout``: ``"interleaved"`` (the
+        default), ``"train_first"`` or ``"validation_first"`` (:mod:`.blocks`; the
+        one-sided layouts are for checking what the interleaving does,
+        ``reports/concealed/block_layout.md``).
 
     Returns
     -------
@@ -742,8 +756,10 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         from .slip_bootstrap import check_request
 
         check_request(rec, model, slip_jump_bootstrap, bootstrap_seed)
+    if block_layout not in LAYOUTS:
+        raise ValueError(f"block_layout must be one of {LAYOUTS}, got {block_layout!r}")
     cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor, pem=pem,
-                  op_range=op_range)
+                  op_range=op_range, n_blocks=n_blocks, block_layout=block_layout)
     loc = locate(cmp)
     names = hypothesise(cmp, loc, hypotheses)
     fits, ham = fit(cmp, names, alpha=alpha, linear_input_gate=linear_input_gate)

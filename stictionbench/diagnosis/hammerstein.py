@@ -44,6 +44,7 @@ from scipy.stats import chi2
 
 from ..errors import InputError
 from ..recording import Recording
+from .blocks import N_BLOCKS, split_blocks
 from .noise import WHITE, NoiseModel, fit_noise_model, input_independence, ljung_box, lr_test
 from .openloop import fopdt_biquad, fopdt_coefficients, stiction_valve
 from .process import fit_fopdt
@@ -73,7 +74,6 @@ CHOUDHURY = STOP_RULES.index("choudhury")
 #: :data:`MIN_SLIP_FRACTION`, the resolution below which a fitted slip jump is
 #: called a dead band anyway
 CHOUDHURY_MIN_SLIP = MIN_SLIP_FRACTION
-N_BLOCKS = 5
 #: high-pass cut-off in units of 1/(2π(τ+θ)) of the linear loop (slow-load rejection)
 HP_FACTOR = 0.3
 
@@ -211,12 +211,6 @@ class _Criterion:
         gw = self.noise.whiten(g)[self.train]
         K = float(np.dot(gw, self.yw[self.train])) / max(float(np.dot(gw, gw)), 1e-300)
         return K, K * g, mv
-
-
-def _blocks(n: int, burn: int) -> tuple[np.ndarray, np.ndarray]:
-    edges = np.linspace(burn, n, N_BLOCKS + 1).round().astype(int)
-    blocks = [np.arange(edges[i], edges[i + 1]) for i in range(N_BLOCKS)]
-    return np.concatenate(blocks[0::2]), np.concatenate(blocks[1::2])
 
 
 def _bounds(crit: _Criterion, tau0: float, theta0: float):
@@ -486,7 +480,8 @@ def _check(rec: Recording) -> tuple[np.ndarray, np.ndarray]:
 def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
                     linear: tuple[float, float, float] | None = None,
                     fix_process: bool = False,
-                    hp_factor: float = HP_FACTOR) -> HammersteinResult:
+                    hp_factor: float = HP_FACTOR, n_blocks: int = N_BLOCKS,
+                    block_layout: str = "interleaved") -> HammersteinResult:
     """Identify a stick-slip valve and a FOPDT process jointly from ``rec.OP`` → ``rec.PV``.
 
     Parameters
@@ -512,6 +507,9 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
         The prefilter's high-pass cut-off as a fraction of ``1/(2π(τ+θ))`` of the linear
         loop it starts from (default :data:`HP_FACTOR`; :func:`.diagnose.diagnose` passes
         its own, so that the valve and the other hypotheses see the same band).
+    n_blocks, block_layout : int, str
+        The training and validation blocks after the burn-in (:func:`.blocks.split_blocks`;
+        default five, interleaved; :func:`.diagnose.diagnose` passes its own).
 
     Returns
     -------
@@ -533,7 +531,8 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
         raise InputError(f"hp_factor must be positive, got {hp_factor!r}")
     f_hp = hp_factor / (2 * math.pi * (tau0 + theta0))
     burn = min(int(math.ceil((theta0 + 3 * tau0) / Ts)), op.size // 5)
-    crit = _Criterion(op, pv, Ts, f_hp, *_blocks(op.size, burn))
+    split = split_blocks(op.size, burn, n_blocks, block_layout)
+    crit = _Criterion(op, pv, Ts, f_hp, split.train, split.val)
     crit.fixed = bool(fix_process and linear is not None)
     crit.theta_given = theta0
     # 1. output-error fits (white H): the linear loop, then the valve on a grid and by
