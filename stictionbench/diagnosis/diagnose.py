@@ -6,7 +6,8 @@
    the band by a low-pass (:func:`.hypotheses.lowpass_corner`: five process corner
    frequencies, widened to keep the harmonics of a clear oscillation in PV or, with a
    given model, in the nominal residual); after a burn-in of θ + 3τ the record is cut
-   into five blocks (1, 3, 5 train; 2, 4 validate).
+   into five blocks (1, 3, 5 train; 2, 4 validate; :mod:`.blocks`, where the split is
+   varied by ``n_blocks`` and ``block_layout``).
 2. :func:`locate` — windows in time where the residual's rolling RMS exceeds twice the
    white-noise floor; the band in frequency where its spectrum exceeds four times the
    floor; its coherence with OP there.
