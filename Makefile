@@ -119,8 +119,9 @@ concealed: venv
 # the alternative decision rules re-decided on the sets' stored evidence (decision_rules),
 # and the healthy loops' slow-line false alarms checked by varying the validation blocks'
 # layout and the load (block_layout), and a verdict voted over three splits against a
-# criterion fixed before its run, on the sets and two fresh ones (split_vote; about 260
-# minutes on 2 cores in all)
+# criterion fixed before its run, on the sets and two fresh ones (split_vote), and the AR
+# noise model against ARMA on their healthy loops (noise_model_family; about 265 minutes
+# on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -153,6 +154,7 @@ independent: venv
 	$(BIN)/python experiments/slip_jump_bootstrap_sets.py --jobs 2
 	$(BIN)/python experiments/block_layout.py --jobs 2
 	$(BIN)/python experiments/split_vote.py --jobs 2
+	$(BIN)/python experiments/noise_model_family.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor
