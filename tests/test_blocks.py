@@ -141,3 +141,26 @@ def test_a_surviving_line_alarm_is_reported_as_a_failed_prediction():
     df.loc[keep, "predicted"] = bl.LINE
     text = bl.report(df, (6, 6))
     assert "Not held: some survive without the load." in text
+
+
+def test_prediction_four_reads_the_wander_rows_when_they_are_there():
+    import block_layout as bl
+
+    df = _frame()
+    assert "Prediction 4" not in bl.report(df, (6, 6))
+    extra = []
+    for v, named in (("train_first", "none"), ("no_wander", bl.LINE),
+                     ("no_wander+train_first", bl.LINE)):
+        extra.append({"generator": "C", "set": "c", "name": "o2C", "level": 1,
+                      "class": bl.LINE, "variant": v, "predicted": named, "line_p": 1e-6,
+                      "line_improvement": 0.2, "line_period": 80.0, "band_dof": 150.0,
+                      "stored": bl.LINE})
+    extra.append({**extra[0], "variant": "interleaved", "predicted": bl.LINE})
+    df = pd.concat([df, pd.DataFrame(extra)], ignore_index=True)
+    text = bl.report(df, (6, 6))
+    # only the re-made recording is counted: lost to the forecast as recorded, not without
+    assert "generator C's 1 disturbances named 1 interleaved → 0 forecast as recorded, " \
+        "1 → 1 without the wander" in text
+    assert "Prediction 4 (the wander)" in text and "Held: without the wander" in text
+    table = bl.wander_table(bl._flags(df))
+    assert table.set_index("variant").loc["no_wander", "both"].startswith("1/1")
