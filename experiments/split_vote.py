@@ -50,7 +50,12 @@ from fresh_recordings import jobs_reuse_args, publish, run  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.io import read_recording  # noqa: E402
-from stictionbench.rates import balanced_text, mcnemar_p, rate_text  # noqa: E402
+from stictionbench.rates import (  # noqa: E402
+    balanced_score,
+    balanced_text,
+    mcnemar_p,
+    rate_text,
+)
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 DATA = ROOT / ".cache" / "blindgen"
@@ -166,8 +171,6 @@ def per_class(w: pd.DataFrame) -> pd.DataFrame:
 
 
 def _score(g: pd.DataFrame, rule: str, level: int) -> float:
-    from stictionbench.rates import balanced_score
-
     gl = g[g.level == level]
     return balanced_score(gl[rule] == gl["class"], gl["class"])[0]
 

@@ -63,7 +63,7 @@ def split_blocks(n: int, burn: int, n_blocks: int = N_BLOCKS,
     ([10, 69], [70, 109], [10, 30, 50, 70])
     """
     if layout not in LAYOUTS:
-        raise ValueError(f"block layout must be one of {LAYOUTS}, got {layout!r}")
+        raise ValueError(f"block_layout must be one of {LAYOUTS}, got {layout!r}")
     if int(n_blocks) != n_blocks or n_blocks < 2:
         raise ValueError(f"n_blocks must be an integer of at least 2, got {n_blocks!r}")
     n_blocks = int(n_blocks)

@@ -44,7 +44,7 @@ import numpy as np
 from ..errors import InputError
 from ..op_range import infer_op_range
 from ..recording import Recording
-from .blocks import LAYOUTS, N_BLOCKS, split_blocks
+from .blocks import N_BLOCKS, split_blocks
 from .cycle import CycleCheck, check_cycle
 from .detectability import minimum_detectable
 from .evidence import (
@@ -757,8 +757,6 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         from .slip_bootstrap import check_request
 
         check_request(rec, model, slip_jump_bootstrap, bootstrap_seed)
-    if block_layout not in LAYOUTS:
-        raise ValueError(f"block_layout must be one of {LAYOUTS}, got {block_layout!r}")
     cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor, pem=pem,
                   op_range=op_range, n_blocks=n_blocks, block_layout=block_layout)
     loc = locate(cmp)
