@@ -191,9 +191,9 @@ def _false_alarm_lines(df: pd.DataFrame) -> list[str]:
             "the median. "
             + ("The false alarms gather where the innovations are correlated."
                if p < 0.05 else
-               "The false alarms do not gather where the innovations are correlated, so a "
-               "correction of the tests for serial correlation alone would not remove "
-               "them.")]
+               "The false alarms do not gather where the innovations are correlated, so "
+               "serial correlation does not point to them; a test corrected for it was "
+               "not run here.")]
 
 
 def report(df: pd.DataFrame) -> str:
