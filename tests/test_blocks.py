@@ -86,6 +86,21 @@ def test_diagnose_uses_the_layout_it_is_given():
         diagnose(rec, model, block_layout="shuffled")
 
 
+def test_the_second_look_judges_on_the_blocks_of_the_main_comparison():
+    # the slow-line look re-compares in a wider band; it must keep the layout it was
+    # given (it fell back to five interleaved blocks before 2026-12-02)
+    from types import SimpleNamespace
+
+    from stictionbench.diagnosis.diagnose import compare, second_look
+
+    rec, model = _loop()
+    cmp = compare(rec, model, n_blocks=3, block_layout="train_first")
+    look = second_look(cmp, SimpleNamespace(pick="none"))
+    assert look is not None
+    assert (look.cmp.n_blocks, look.cmp.block_layout) == (3, "train_first")
+    assert np.array_equal(look.cmp.prob.val, cmp.prob.val)
+    assert np.array_equal(look.cmp.prob.train, cmp.prob.train)
+
 def _frame() -> pd.DataFrame:
     """A hand-made block_layout table: two healthy loops and one disturbance per generator;
     the healthy loop h1 is a line only under the shipped layout."""

@@ -632,7 +632,8 @@ def second_look(cmp: Comparison, verdict: Verdict, *, alpha: float = ALPHA,
         return None
     name = "oscillatory_disturbance"
     c2 = compare(cmp.rec, cmp.model, hp_factor=cmp.hp_factor * SLOW_LINE_HP,
-                 lp_factor=lp_factor, pem=cmp.pem, op_range=cmp.ctx.op_range)
+                 lp_factor=lp_factor, pem=cmp.pem, op_range=cmp.ctx.op_range,
+                 n_blocks=cmp.n_blocks, block_layout=cmp.block_layout)
     loc2 = locate(c2)
     fits2, _ = fit(c2, hypothesise(c2, loc2, (name,)))
     if name not in fits2:
