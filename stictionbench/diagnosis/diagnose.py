@@ -83,6 +83,7 @@ from .locate import (
     tone_periods,
 )
 from .model import NominalModel, fit_pi, identify_pi
+from .noise import FAMILIES as NOISE_FAMILIES
 from .noise import fit_noise_model
 from .op_limit import held_at_limit
 from .openloop import LIKELIHOOD_HIGHPASS_ORDERS, band_of
@@ -173,6 +174,8 @@ class Comparison:
     #: the blocks' number and layout (:func:`.blocks.split_blocks`), shared likewise
     n_blocks: int = N_BLOCKS
     block_layout: str = "interleaved"
+    #: the noise models' family (:func:`.noise.fit_noise_model`), shared likewise
+    noise_family: str = "ar"
 
 
 @dataclass
@@ -245,7 +248,7 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
             hp_factor: float = HP_FACTOR,
             lp_factor: float = 5.0, pem: bool = True,
             op_range: tuple[float, float] | None = None, n_blocks: int = N_BLOCKS,
-            block_layout: str = "interleaved") -> Comparison:
+            block_layout: str = "interleaved", noise_family: str = "ar") -> Comparison:
     """Stage 1: the nominal model (given, or identified FOPDT) replayed from the recorded
     OP, its training/validation split and its output-error fit (see the module
     docstring). ``pem`` (default) asks :func:`fit` to refit every hypothesis by its
@@ -254,7 +257,10 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
     (OP's 0 and 100 %) overrides the model's and the one recognised from the data
     (:mod:`.op_range`). ``n_blocks`` and ``block_layout`` cut the record after the burn-in
     into training and validation blocks (:func:`.blocks.split_blocks`; default five,
-    interleaved)."""
+    interleaved). ``noise_family`` is that of every noise model the later stages fit
+    (:func:`.noise.fit_noise_model`; default ``"ar"``)."""
+    if noise_family not in NOISE_FAMILIES:
+        raise ValueError(f"noise_family must be one of {NOISE_FAMILIES}, got {noise_family!r}")
     _check(rec)
     model = _nominal_model(rec, model, hp_factor)
     n, Ts = len(rec), rec.Ts
@@ -301,7 +307,7 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
     val_blocks = [[float(rec.t[b[0]]), float(rec.t[b[-1]])]
                   for b in np.split(split.val, np.flatnonzero(np.diff(split.val) > 1) + 1)]
     return Comparison(rec, model, ctx, prob, burn, int(edges[1]), val_blocks, shifts,
-                      nominal, pem, hp_factor, int(n_blocks), block_layout)
+                      nominal, pem, hp_factor, int(n_blocks), block_layout, noise_family)
 
 
 def _band_for_residual_line(ctx: Context, nominal: Fit, burn: int,
@@ -386,7 +392,8 @@ def _identify_valve(cmp: Comparison, alpha: float) -> HammersteinResult:
     theta = max(m.dead_time + shift, 0.0)
     return fit_hammerstein(cmp.rec, alpha=alpha, linear=(m.gain, m.time_constant, theta),
                            fix_process=given, hp_factor=cmp.hp_factor,
-                           n_blocks=cmp.n_blocks, block_layout=cmp.block_layout)
+                           n_blocks=cmp.n_blocks, block_layout=cmp.block_layout,
+                           noise_family=cmp.noise_family)
 
 
 def _adopt_linear(cmp: Comparison, h: HammersteinResult) -> bool:
@@ -463,7 +470,8 @@ def _prediction_error_refit(cmp: Comparison, fits: dict[str, Fit], *,
     parameters are known: ``experiments/oracle_ceiling.py``). ``linear_input_gate``: a
     valve against a given model must also beat the nominal model with a four-tap FIR on OP
     (:mod:`.linear_input`), its p-value the fit's ``gate_p``."""
-    noise = fit_noise_model(noise_source(fits).resid[cmp.prob.train])
+    noise = fit_noise_model(noise_source(fits).resid[cmp.prob.train],
+                            family=cmp.noise_family)
     for name, ft in list(fits.items()):
         prob = cmp.prob.with_ctx(ft.ctx).with_noise(noise)
         h = Nominal() if name == "none" else HYPOTHESES[name]
@@ -565,7 +573,7 @@ def validate(cmp: Comparison, fits: dict[str, Fit], ham: HammersteinResult | Non
     return _validate(fits, c.pv, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val,
                      alpha=alpha, min_improvement=min_improvement, horizon=horizon,
                      cycle=cycle, own_resolution=own_resolution(cmp.rec, c.model_given),
-                     highpass_order=highpass_order)
+                     highpass_order=highpass_order, noise_family=cmp.noise_family)
 
 
 #: the second look's slow-load high-pass as a fraction of the main band's
@@ -633,7 +641,8 @@ def second_look(cmp: Comparison, verdict: Verdict, *, alpha: float = ALPHA,
     name = "oscillatory_disturbance"
     c2 = compare(cmp.rec, cmp.model, hp_factor=cmp.hp_factor * SLOW_LINE_HP,
                  lp_factor=lp_factor, pem=cmp.pem, op_range=cmp.ctx.op_range,
-                 n_blocks=cmp.n_blocks, block_layout=cmp.block_layout)
+                 n_blocks=cmp.n_blocks, block_layout=cmp.block_layout,
+                 noise_family=cmp.noise_family)
     loc2 = locate(c2)
     fits2, _ = fit(c2, hypothesise(c2, loc2, (name,)))
     if name not in fits2:
@@ -676,7 +685,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              slip_jump_bootstrap: int = 0, bootstrap_seed: int = 0,
              linear_input_gate: bool = True, test_highpass_order: int = 2,
              detectability: bool = True, n_blocks: int = N_BLOCKS,
-             block_layout: str = "interleaved") -> Diagnosis:
+             block_layout: str = "interleaved", noise_family: str = "ar") -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -739,6 +748,11 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         default), ``"train_first"`` or ``"validation_first"`` (:mod:`.blocks`; the
         one-sided layouts are for checking what the interleaving does,
         ``reports/concealed/block_layout.md``).
+    noise_family : {"ar", "arma"}
+        The family of the noise models on the output errors (:func:`.noise.fit_noise_model`):
+        ``"ar"`` (default) an AR or integrated AR model, ``"arma"`` also ARMA / ARIMA
+        models of low order, chosen by BIC (``reports/concealed/arma_diagnosis.md``
+        compares the two).
 
     Returns
     -------
@@ -759,7 +773,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
 
         check_request(rec, model, slip_jump_bootstrap, bootstrap_seed)
     cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor, pem=pem,
-                  op_range=op_range, n_blocks=n_blocks, block_layout=block_layout)
+                  op_range=op_range, n_blocks=n_blocks, block_layout=block_layout,
+                  noise_family=noise_family)
     loc = locate(cmp)
     names = hypothesise(cmp, loc, hypotheses)
     fits, ham = fit(cmp, names, alpha=alpha, linear_input_gate=linear_input_gate)

@@ -211,19 +211,20 @@ def validate(fits: dict[str, Fit], pv: np.ndarray, op: np.ndarray, Ts: float, f_
              min_improvement: float, horizon: int = 1,
              cycle: CycleCheck | None = None,
              own_resolution: frozenset[str] = OWN_RESOLUTION,
-             highpass_order: int = 2) -> Verdict:
+             highpass_order: int = 2, noise_family: str = "ar") -> Verdict:
     """Decide among fitted hypotheses (``fits["none"]`` is the nominal model) by
     prediction-error likelihood; see the module docstring. ``horizon`` (samples) adds
     the k-step-ahead test (the loop's time scale ``τ + θ``); ``cycle`` is the closed-loop
     cycle check of the identified valve (:mod:`.cycle`), reported under ``tests`` and
     passed to :func:`select`; ``own_resolution`` the hypotheses whose practical
     significance is their own resolution (:func:`passes`); ``highpass_order`` the
-    high-pass of the output errors whitened (:func:`output_error`)."""
+    high-pass of the output errors whitened (:func:`output_error`); ``noise_family`` that
+    of the noise model (:func:`.noise.fit_noise_model`)."""
     oe = {name: output_error(ft, pv, Ts, f_hp, highpass_order) for name, ft in fits.items()}
     src = noise_source(fits)
     src_oe = next((oe[k] for k, ft in fits.items() if ft is src), None)
     noise = fit_noise_model((output_error(src, pv, Ts, f_hp, highpass_order)
-                             if src_oe is None else src_oe)[train])
+                             if src_oe is None else src_oe)[train], family=noise_family)
     e = {name: noise.whiten(r) for name, r in oe.items()}
     ek = {name: noise.kstep(r, horizon) for name, r in oe.items()} if horizon > 1 else {}
     var = _scores(fits, e, train, val)

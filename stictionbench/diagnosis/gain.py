@@ -147,7 +147,7 @@ def setpoint_gain(cmp: Comparison) -> GainTest:
     if not den or not np.isfinite(den):
         return GainTest(False, "the set point's moves do not reach OP")
     k = float(z[idx] @ y[idx]) / den
-    noise = fit_noise_model((y - k * x)[idx])
+    noise = fit_noise_model((y - k * x)[idx], family=cmp.noise_family)
     yw, xw, zw = noise.whiten(y), noise.whiten(x), noise.whiten(z)
     iw = idx[idx >= cmp.burn + noise.inverse().size]
     den = float(zw[iw] @ xw[iw])

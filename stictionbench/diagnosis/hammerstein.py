@@ -481,7 +481,8 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
                     linear: tuple[float, float, float] | None = None,
                     fix_process: bool = False,
                     hp_factor: float = HP_FACTOR, n_blocks: int = N_BLOCKS,
-                    block_layout: str = "interleaved") -> HammersteinResult:
+                    block_layout: str = "interleaved",
+                    noise_family: str = "ar") -> HammersteinResult:
     """Identify a stick-slip valve and a FOPDT process jointly from ``rec.OP`` → ``rec.PV``.
 
     Parameters
@@ -510,6 +511,8 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
     n_blocks, block_layout : int, str
         The training and validation blocks after the burn-in (:func:`.blocks.split_blocks`;
         default five, interleaved; :func:`.diagnose.diagnose` passes its own).
+    noise_family : {"ar", "arma"}
+        The noise model's family (:func:`.noise.fit_noise_model`; default ``"ar"``).
 
     Returns
     -------
@@ -555,7 +558,7 @@ def fit_hammerstein(rec: Recording, *, alpha: float = 0.01,
     #    tested with (the output error can prefer another rule than the innovations do);
     #    with the process re-identified, the output error's rule is refined alone
     _, sim, _ = crit.simulate(*p)
-    crit.set_noise(fit_noise_model((crit.y - sim)[crit.train]))
+    crit.set_noise(fit_noise_model((crit.y - sim)[crit.train], family=noise_family))
     v_lin, tau_l, theta_l = _linear(crit, *((tau0, theta0) if crit.fixed else (tau_l, theta_l)))
     candidates = [q for _, q in per_rule.values()] if crit.fixed else [p]
     v_valve, p = min((_refine(crit, q, tau_l, theta_l) for q in candidates),

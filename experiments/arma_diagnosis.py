@@ -1,0 +1,273 @@
+"""The diagnosis with an ARMA noise model against the shipped AR one, scored on the sets
+A–I and on two fresh sets drawn for it, against a criterion written before either run.
+
+Why: issue 10 asks for "a noise model on the output error (ARMA, with an integrated option
+for drifting loads)". The package's noise model is AR / integrated AR of order up to 12 by
+BIC (:mod:`stictionbench.diagnosis.noise`, family ``"ar"``).
+``reports/concealed/noise_model_family.md`` found, on 264 healthy loops, an ARMA model's
+BIC lower by more than 10 on 57 % of them and the Ljung–Box test rejecting white validation
+innovations on 34 % under ARMA against 63 % under AR; it did not find the false alarms
+among the loops with the most correlated innovations. This run puts the ARMA family
+(``noise_family="arma"``: the AR model and ARMA / ARIMA (p, q) ∈ {(1,1), (2,1), (1,2), (2,2)},
+:func:`stictionbench.diagnosis.noise.fit_noise_model`) into every noise model the
+diagnosis fits (the prediction-error refit, the valve identification, the likelihood
+tests, the set-point gain test) and asks whether the verdicts get better.
+
+Recordings: every recording of the independent sets A–I (1728; their ``ar`` verdicts are
+the stored ones, ``independent_set_*.csv``; the diagnosis's thresholds were set on and
+checked against these sets, so they are in-sample for the thresholds, not for this
+change) and two fresh sets drawn for this run, generator A from seed 79000 and generator
+C from seed 81000, 12 recordings per class and level each (384, out of sample), run under
+both families (the time ratio is measured there, in the same run).
+
+**Prediction, written before the run.** The healthy loops' validation innovations are
+whiter under ARMA (Ljung–Box at 20 lags rejecting at 5 % less often), as
+``noise_model_family.py`` measured outside the diagnosis.
+
+**Criterion, written before the run.** ARMA becomes the default only if on the fresh sets
+pooled (1) no more healthy loops are called physics than under AR, (2) the score of 16 at
+each level is not lower than AR's by more than 0.25, (3) it gains something: fewer healthy
+loops called physics, or a level's score higher by at least 0.25; (4) (1) and (2) also
+hold on sets A–I; and (5) a diagnosis under it stays within the issue's 2 s per
+3000-sample recording (median on the fresh sets). Otherwise it is not adopted, and the
+report says which part failed.
+
+Run: ``.venv/bin/python experiments/arma_diagnosis.py [--jobs 2] [--reuse]`` after ``make
+independent`` (the sets in ``.cache/blindgen``; the fresh sets are generated here);
+writes ``reports/concealed/arma_diagnosis.{md,csv}`` (about 40 minutes on 2 cores).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "experiments"))
+
+from fresh_recordings import jobs_reuse_args, publish, run  # noqa: E402
+
+from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
+from stictionbench.io import read_recording  # noqa: E402
+from stictionbench.rates import (  # noqa: E402
+    balanced_score,
+    balanced_text,
+    mcnemar_p,
+    rate_text,
+)
+from stictionbench.reports.tables import to_markdown  # noqa: E402
+
+DATA = ROOT / ".cache" / "blindgen"
+OUT = ROOT / "reports" / "concealed"
+SETS = {"A": ("a", "b", "d", "f", "h"), "C": ("c", "e", "g", "i")}
+#: fresh set → (generator folder, first seed): drawn for this experiment
+FRESH = {"arma_a": ("blind_generator", 79000), "arma_c": ("blind_generator_c", 81000)}
+PER_CLASS = 12
+FAMILIES = ("ar", "arma")
+#: the criterion's largest loss, and smallest gain, of score of 16 at a level
+MAX_LOSS = 0.25
+MIN_GAIN = 0.25
+#: the issue's time per 3000-sample recording
+MAX_SECONDS = 2.0
+#: Ljung–Box level of the whiteness prediction
+LB_ALPHA = 0.05
+
+
+def fresh_sets() -> None:
+    """Write the fresh sets with their generators (same seed, byte-identical files)."""
+    for name, (gen, seed) in FRESH.items():
+        out = DATA / name
+        if (out / "truth.csv").exists():
+            continue
+        subprocess.run([sys.executable, str(ROOT / "experiments" / gen / "generate.py"),
+                        "--out", str(out), "--per-class", str(PER_CLASS),
+                        "--first-seed", str(seed)], check=True, stdout=subprocess.DEVNULL)
+
+
+def one(part: str, gen: str, set_: str, name: str, cls: str, level: int,
+        family: str) -> dict:
+    """One recording diagnosed with its model YAML under the noise family ``family``."""
+    src = DATA / (set_ if part == "fresh" else f"set_{set_}")
+    rec = read_recording(str(src / f"{name}.csv"), warn=False)
+    t0 = time.perf_counter()
+    r = diagnose(rec, load_model(src / f"{name}.model.yaml"), noise_family=family)
+    nm = r.noise_model
+    return {"part": part, "generator": gen, "set": set_, "name": name, "class": cls,
+            "level": level, "family": family, "predicted": r.missing_physics,
+            "seconds": time.perf_counter() - t0, "noise": nm.get("family"),
+            "ar_order": nm.get("ar_order"), "ma_order": nm.get("ma_order"),
+            "whiteness_p": r.tests.get("whiteness", {}).get("p_value")}
+
+
+def cases() -> tuple[list[tuple], pd.DataFrame]:
+    """Every job, and the stored AR verdicts of sets A–I."""
+    todo, stored = [], []
+    for gen, sets in SETS.items():
+        for s in sets:
+            d = pd.read_csv(OUT / f"independent_set_{s}.csv")
+            stored.append(pd.DataFrame({"part": "A–I", "generator": gen, "set": s,
+                                        "name": d["name"], "class": d["class"],
+                                        "level": d.level, "family": "ar",
+                                        "predicted": d.predicted}))
+            todo += [("A–I", gen, s, r["name"], r["class"], int(r.level), "arma")
+                     for _, r in d.iterrows()]
+    for s, (folder, _) in FRESH.items():
+        gen = "A" if folder == "blind_generator" else "C"
+        t = pd.read_csv(DATA / s / "truth.csv")
+        todo += [("fresh", gen, s, r["name"], r["class"], int(r.level), f)
+                 for _, r in t.iterrows() for f in FAMILIES]
+    return todo, pd.concat(stored, ignore_index=True)
+
+
+def verdicts(df: pd.DataFrame) -> pd.DataFrame:
+    """One row per recording: each family's verdict."""
+    w = df.pivot_table(index=["part", "generator", "set", "name", "class", "level"],
+                       columns="family", values="predicted", aggfunc="first").reset_index()
+    return w.dropna(subset=list(FAMILIES))
+
+
+def scores(w: pd.DataFrame) -> pd.DataFrame:
+    """Per part, generator and level: each family's score of 16 and healthy loops called
+    physics, and the paired changes."""
+    rows = []
+    for (part, gen), g in [*w.groupby(["part", "generator"]),
+                           *[((p, "both"), g) for p, g in w.groupby("part")]]:
+        for lv in (1, 2):
+            gl = g[g.level == lv]
+            h = gl[gl["class"] == "none"]
+            row = {"part": part, "generator": gen, "level": lv}
+            for f in FAMILIES:
+                row[f"{f}: of 16"] = balanced_text(gl[f] == gl["class"], gl["class"])
+                row[f"{f}: healthy called physics"] = rate_text(
+                    int((h[f] != "none").sum()), len(h))
+            a, b = gl.arma == gl["class"], gl.ar == gl["class"]
+            only_m, only_a = int((a & ~b).sum()), int((b & ~a).sum())
+            row["right only under ARMA / only AR"] = (
+                f"{only_m} / {only_a} (p = {mcnemar_p(only_m, only_a):.2g})")
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def per_class(w: pd.DataFrame) -> pd.DataFrame:
+    """Named right per class and level, AR against ARMA, each part pooled."""
+    rows = []
+    for (part, cls, lv), g in w.groupby(["part", "class", "level"]):
+        rows.append({"part": part, "class": cls, "level": lv,
+                     **{f: rate_text(int((g[f] == cls).sum()), len(g)) for f in FAMILIES}})
+    return pd.DataFrame(rows)
+
+
+def _score(g: pd.DataFrame, family: str, level: int) -> float:
+    gl = g[g.level == level]
+    return balanced_score(gl[family] == gl["class"], gl["class"])[0]
+
+
+def _healthy_physics(g: pd.DataFrame, family: str) -> int:
+    return int((g[g["class"] == "none"][family] != "none").sum())
+
+
+def criterion(w: pd.DataFrame, seconds: float) -> list[tuple[str, bool, str]]:
+    """The five parts of the criterion: (what, met, the numbers)."""
+    out = []
+    for part, label in (("fresh", "fresh sets"), ("A–I", "sets A–I")):
+        g = w[w.part == part]
+        n_h = int((g["class"] == "none").sum())
+        fa = {f: _healthy_physics(g, f) for f in FAMILIES}
+        sc = {(f, lv): _score(g, f, lv) for f in FAMILIES for lv in (1, 2)}
+        numbers = ", ".join(f"level {lv} {sc['ar', lv]:.2f} → {sc['arma', lv]:.2f}"
+                            for lv in (1, 2))
+        out.append((f"{label}: no more healthy loops called physics",
+                    fa["arma"] <= fa["ar"], f"{fa['ar']} → {fa['arma']} of {n_h}"))
+        out.append((f"{label}: score of 16 lost at most {MAX_LOSS} at each level",
+                    all(sc["ar", lv] - sc["arma", lv] <= MAX_LOSS for lv in (1, 2)),
+                    numbers))
+        if part == "fresh":
+            gain = fa["arma"] < fa["ar"] or any(
+                sc["arma", lv] - sc["ar", lv] >= MIN_GAIN for lv in (1, 2))
+            out.append((f"{label}: a gain (fewer healthy loops called physics, or a "
+                        f"level's score up by {MIN_GAIN})", gain, numbers))
+    out.append((f"a diagnosis under ARMA within {MAX_SECONDS:g} s (median)",
+                seconds <= MAX_SECONDS, f"{seconds:.2f} s"))
+    return out
+
+
+def whiteness(df: pd.DataFrame) -> pd.DataFrame:
+    """The prediction: healthy fresh loops whose validation innovations Ljung–Box rejects
+    at :data:`LB_ALPHA`, and the noise models chosen, per family."""
+    rows = []
+    h = df[(df.part == "fresh") & (df["class"] == "none")]
+    for f in FAMILIES:
+        g = h[h.family == f]
+        rows.append({"family": f, "healthy loops": len(g),
+                     "whiteness rejected": rate_text(int((g.whiteness_p < LB_ALPHA).sum()),
+                                                     len(g)),
+                     "median p": f"{g.whiteness_p.median():.3g}",
+                     "noise models chosen": ", ".join(
+                         f"{k} {v}" for k, v in g.noise.value_counts().items())})
+    return pd.DataFrame(rows)
+
+
+def report(df: pd.DataFrame) -> str:
+    w = verdicts(df)
+    fresh = df[df.part == "fresh"]
+    sec = {f: float(fresh[fresh.family == f].seconds.median()) for f in FAMILIES}
+    crit = criterion(w, sec["arma"])
+    adopted = all(ok for _, ok, _ in crit)
+    white = whiteness(df)
+    rej = {r["family"]: r["whiteness rejected"] for _, r in white.iterrows()}
+    h = fresh[fresh["class"] == "none"]
+    n_rej = {f: int((h[h.family == f].whiteness_p < LB_ALPHA).sum()) for f in FAMILIES}
+    lines = [
+        "# The diagnosis with an ARMA noise model", "",
+        "Generated by `experiments/arma_diagnosis.py` (the change, the recordings, the "
+        "prediction and the criterion, written before the run, in its docstring). **ar**: "
+        "the shipped noise model (AR / integrated AR by BIC); **arma**: that model and "
+        "ARMA / ARIMA models of low order by BIC in every noise model the diagnosis fits. "
+        "Sets A–I carry the stored `ar` verdicts (in-sample for the diagnosis's "
+        "thresholds); the two fresh sets were drawn for this run and diagnosed under "
+        "both. Scores of 16 weigh the eight classes equally (95 % intervals); Wilson 95 % "
+        "intervals; McNemar's exact test on the recordings whose verdict changed.", "",
+        f"- Recordings: {int((w.part == 'A–I').sum())} of sets A–I, "
+        f"{int((w.part == 'fresh').sum())} fresh.",
+        f"- Time per recording on the fresh sets (median, same run): {sec['ar']:.2f} s "
+        f"under AR, {sec['arma']:.2f} s under ARMA (ratio "
+        f"{sec['arma'] / max(sec['ar'], 1e-9):.2f}).", "",
+        to_markdown(scores(w)), "",
+        "## The prediction: whiter innovations", "",
+        to_markdown(white), "",
+        ("Held" if n_rej["arma"] < n_rej["ar"] else "Not held")
+        + f": Ljung–Box rejected the healthy loops' validation innovations on "
+        f"{rej['ar']} under AR and {rej['arma']} under ARMA.", "",
+        "## The criterion", "",
+        to_markdown(pd.DataFrame([{"part": what, "met": "yes" if ok else "no",
+                                   "measured": text} for what, ok, text in crit])), "",
+        ("**Adopted**: every part met." if adopted else
+         "**Not adopted**: " + "; ".join(what for what, ok, _ in crit if not ok)
+         + " failed. The shipped noise model is unchanged."), "",
+        "## Per class", "", to_markdown(per_class(w)), "",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv)
+    stem = OUT / "arma_diagnosis"
+    if args.reuse and stem.with_suffix(".csv").exists():
+        df = pd.read_csv(stem.with_suffix(".csv"))
+    else:
+        fresh_sets()
+        todo, stored = cases()
+        df = pd.concat([stored, run(one, todo, args.jobs)], ignore_index=True)
+        df = df.sort_values(["part", "generator", "set", "name", "family"],
+                            kind="stable").reset_index(drop=True)
+    publish(df, report(df), stem)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
