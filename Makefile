@@ -120,7 +120,8 @@ concealed: venv
 # and the healthy loops' slow-line false alarms checked by varying the validation blocks'
 # layout and the load (block_layout), and a verdict voted over three splits against a
 # criterion fixed before its run, on the sets and two fresh ones (split_vote), and the AR
-# noise model against ARMA on their healthy loops (noise_model_family; about 265 minutes
+# noise model against ARMA on their healthy loops (noise_model_family) and in the whole
+# diagnosis against a criterion fixed before its run (arma_diagnosis; about 285 minutes
 # on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
@@ -155,6 +156,7 @@ independent: venv
 	$(BIN)/python experiments/block_layout.py --jobs 2
 	$(BIN)/python experiments/split_vote.py --jobs 2
 	$(BIN)/python experiments/noise_model_family.py --jobs 2
+	$(BIN)/python experiments/arma_diagnosis.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

@@ -23,8 +23,9 @@ option (``d = 1``) for a load that drifts like a random walk.
   likelihood (``ARIMA.fit``) is the reference the tests compare against; it takes about
   0.2 s per model, and a diagnosis fits five to nine noise models of eight candidates
   each. ``reports/concealed/noise_model_family.md`` measured that an MA part makes the
-  healthy loops' innovations whiter; ``experiments/arma_diagnosis.py`` whether it
-  changes the verdicts.
+  healthy loops' innovations whiter; ``reports/concealed/arma_diagnosis.md`` that in the
+  diagnosis it also calls more healthy loops faulty (fresh sets 3 → 8 of 48), so it is
+  not the default.
 
 Tests on innovations (Ljung ch. 16.6): whiteness by the Ljung–Box portmanteau
 (``statsmodels.stats.diagnostic.acorr_ljungbox``) and independence from past inputs by
