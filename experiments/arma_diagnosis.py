@@ -42,6 +42,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
@@ -65,10 +66,7 @@ from stictionbench.reports.tables import to_markdown  # noqa: E402
 DATA = ROOT / ".cache" / "blindgen"
 OUT = ROOT / "reports" / "concealed"
 SETS = {"A": ("a", "b", "d", "f", "h"), "C": ("c", "e", "g", "i")}
-#: fresh set → (generator folder, first seed): drawn for this experiment
-FRESH = {"arma_a": ("blind_generator", 79000), "arma_c": ("blind_generator_c", 81000)}
 PER_CLASS = 12
-FAMILIES = ("ar", "arma")
 #: the criterion's largest loss, and smallest gain, of score of 16 at a level
 MAX_LOSS = 0.25
 MIN_GAIN = 0.25
@@ -76,11 +74,41 @@ MIN_GAIN = 0.25
 MAX_SECONDS = 2.0
 #: Ljung–Box level of the whiteness prediction
 LB_ALPHA = 0.05
+#: every variant's ``diagnose`` keywords (``ar`` is the shipped diagnosis)
+KWARGS: dict[str, dict[str, str]] = {"ar": {}, "arma": {"noise_family": "arma"},
+                                     "arma_tests": {"test_noise_family": "arma"}}
 
 
-def fresh_sets() -> None:
+@dataclass(frozen=True)
+class Design:
+    """One comparison of a variant against ``ar``: its name in the CSV's ``family``
+    column, its label in the report, the fresh sets drawn for it (set → generator
+    folder, first seed), its outputs' stem, the report's title and what the variant is."""
+
+    alt: str
+    label: str
+    fresh: dict[str, tuple[str, int]]
+    stem: str
+    title: str
+    what: str
+
+    @property
+    def families(self) -> tuple[str, str]:
+        return ("ar", self.alt)
+
+
+ARMA = Design("arma", "ARMA",
+              {"arma_a": ("blind_generator", 79000), "arma_c": ("blind_generator_c", 81000)},
+              "arma_diagnosis", "The diagnosis with an ARMA noise model",
+              "that model and ARMA / ARIMA models of low order by BIC in every noise model "
+              "the diagnosis fits")
+#: the fresh sets and the two families of :data:`ARMA`
+FRESH, FAMILIES = ARMA.fresh, ARMA.families
+
+
+def fresh_sets(d: Design = ARMA) -> None:
     """Write the fresh sets with their generators (same seed, byte-identical files)."""
-    for name, (gen, seed) in FRESH.items():
+    for name, (gen, seed) in d.fresh.items():
         out = DATA / name
         if (out / "truth.csv").exists():
             continue
@@ -91,11 +119,12 @@ def fresh_sets() -> None:
 
 def one(part: str, gen: str, set_: str, name: str, cls: str, level: int,
         family: str) -> dict:
-    """One recording diagnosed with its model YAML under the noise family ``family``."""
+    """One recording diagnosed with its model YAML under the variant ``family``
+    (:data:`KWARGS`)."""
     src = DATA / (set_ if part == "fresh" else f"set_{set_}")
     rec = read_recording(str(src / f"{name}.csv"), warn=False)
     t0 = time.perf_counter()
-    r = diagnose(rec, load_model(src / f"{name}.model.yaml"), noise_family=family)
+    r = diagnose(rec, load_model(src / f"{name}.model.yaml"), **KWARGS[family])
     nm = r.noise_model
     return {"part": part, "generator": gen, "set": set_, "name": name, "class": cls,
             "level": level, "family": family, "predicted": r.missing_physics,
@@ -104,34 +133,34 @@ def one(part: str, gen: str, set_: str, name: str, cls: str, level: int,
             "whiteness_p": r.tests.get("whiteness", {}).get("p_value")}
 
 
-def cases() -> tuple[list[tuple], pd.DataFrame]:
+def cases(d: Design = ARMA) -> tuple[list[tuple], pd.DataFrame]:
     """Every job, and the stored AR verdicts of sets A–I."""
     todo, stored = [], []
     for gen, sets in SETS.items():
         for s in sets:
-            d = pd.read_csv(OUT / f"independent_set_{s}.csv")
+            t = pd.read_csv(OUT / f"independent_set_{s}.csv")
             stored.append(pd.DataFrame({"part": "A–I", "generator": gen, "set": s,
-                                        "name": d["name"], "class": d["class"],
-                                        "level": d.level, "family": "ar",
-                                        "predicted": d.predicted}))
-            todo += [("A–I", gen, s, r["name"], r["class"], int(r.level), "arma")
-                     for _, r in d.iterrows()]
-    for s, (folder, _) in FRESH.items():
+                                        "name": t["name"], "class": t["class"],
+                                        "level": t.level, "family": "ar",
+                                        "predicted": t.predicted}))
+            todo += [("A–I", gen, s, r["name"], r["class"], int(r.level), d.alt)
+                     for _, r in t.iterrows()]
+    for s, (folder, _) in d.fresh.items():
         gen = "A" if folder == "blind_generator" else "C"
         t = pd.read_csv(DATA / s / "truth.csv")
         todo += [("fresh", gen, s, r["name"], r["class"], int(r.level), f)
-                 for _, r in t.iterrows() for f in FAMILIES]
+                 for _, r in t.iterrows() for f in d.families]
     return todo, pd.concat(stored, ignore_index=True)
 
 
-def verdicts(df: pd.DataFrame) -> pd.DataFrame:
+def verdicts(df: pd.DataFrame, d: Design = ARMA) -> pd.DataFrame:
     """One row per recording: each family's verdict."""
     w = df.pivot_table(index=["part", "generator", "set", "name", "class", "level"],
                        columns="family", values="predicted", aggfunc="first").reset_index()
-    return w.dropna(subset=list(FAMILIES))
+    return w.dropna(subset=list(d.families))
 
 
-def scores(w: pd.DataFrame) -> pd.DataFrame:
+def scores(w: pd.DataFrame, d: Design = ARMA) -> pd.DataFrame:
     """Per part, generator and level: each family's score of 16 and healthy loops called
     physics, and the paired changes."""
     rows = []
@@ -141,24 +170,25 @@ def scores(w: pd.DataFrame) -> pd.DataFrame:
             gl = g[g.level == lv]
             h = gl[gl["class"] == "none"]
             row = {"part": part, "generator": gen, "level": lv}
-            for f in FAMILIES:
+            for f in d.families:
                 row[f"{f}: of 16"] = balanced_text(gl[f] == gl["class"], gl["class"])
                 row[f"{f}: healthy called physics"] = rate_text(
                     int((h[f] != "none").sum()), len(h))
-            a, b = gl.arma == gl["class"], gl.ar == gl["class"]
+            a, b = gl[d.alt] == gl["class"], gl.ar == gl["class"]
             only_m, only_a = int((a & ~b).sum()), int((b & ~a).sum())
-            row["right only under ARMA / only AR"] = (
+            row[f"right only under {d.label} / only AR"] = (
                 f"{only_m} / {only_a} (p = {mcnemar_p(only_m, only_a):.2g})")
             rows.append(row)
     return pd.DataFrame(rows)
 
 
-def per_class(w: pd.DataFrame) -> pd.DataFrame:
-    """Named right per class and level, AR against ARMA, each part pooled."""
+def per_class(w: pd.DataFrame, d: Design = ARMA) -> pd.DataFrame:
+    """Named right per class and level, AR against the variant, each part pooled."""
     rows = []
     for (part, cls, lv), g in w.groupby(["part", "class", "level"]):
         rows.append({"part": part, "class": cls, "level": lv,
-                     **{f: rate_text(int((g[f] == cls).sum()), len(g)) for f in FAMILIES}})
+                     **{f: rate_text(int((g[f] == cls).sum()), len(g))
+                        for f in d.families}})
     return pd.DataFrame(rows)
 
 
@@ -171,37 +201,39 @@ def _healthy_physics(g: pd.DataFrame, family: str) -> int:
     return int((g[g["class"] == "none"][family] != "none").sum())
 
 
-def criterion(w: pd.DataFrame, seconds: float) -> list[tuple[str, bool, str]]:
+def criterion(w: pd.DataFrame, seconds: float,
+              d: Design = ARMA) -> list[tuple[str, bool, str]]:
     """The five parts of the criterion: (what, met, the numbers)."""
     out = []
+    alt = d.alt
     for part, label in (("fresh", "fresh sets"), ("A–I", "sets A–I")):
         g = w[w.part == part]
         n_h = int((g["class"] == "none").sum())
-        fa = {f: _healthy_physics(g, f) for f in FAMILIES}
-        sc = {(f, lv): _score(g, f, lv) for f in FAMILIES for lv in (1, 2)}
-        numbers = ", ".join(f"level {lv} {sc['ar', lv]:.2f} → {sc['arma', lv]:.2f}"
+        fa = {f: _healthy_physics(g, f) for f in d.families}
+        sc = {(f, lv): _score(g, f, lv) for f in d.families for lv in (1, 2)}
+        numbers = ", ".join(f"level {lv} {sc['ar', lv]:.2f} → {sc[alt, lv]:.2f}"
                             for lv in (1, 2))
         out.append((f"{label}: no more healthy loops called physics",
-                    fa["arma"] <= fa["ar"], f"{fa['ar']} → {fa['arma']} of {n_h}"))
+                    fa[alt] <= fa["ar"], f"{fa['ar']} → {fa[alt]} of {n_h}"))
         out.append((f"{label}: score of 16 lost at most {MAX_LOSS} at each level",
-                    all(sc["ar", lv] - sc["arma", lv] <= MAX_LOSS for lv in (1, 2)),
+                    all(sc["ar", lv] - sc[alt, lv] <= MAX_LOSS for lv in (1, 2)),
                     numbers))
         if part == "fresh":
-            gain = fa["arma"] < fa["ar"] or any(
-                sc["arma", lv] - sc["ar", lv] >= MIN_GAIN for lv in (1, 2))
+            gain = fa[alt] < fa["ar"] or any(
+                sc[alt, lv] - sc["ar", lv] >= MIN_GAIN for lv in (1, 2))
             out.append((f"{label}: a gain (fewer healthy loops called physics, or a "
                         f"level's score up by {MIN_GAIN})", gain, numbers))
-    out.append((f"a diagnosis under ARMA within {MAX_SECONDS:g} s (median)",
+    out.append((f"a diagnosis under {d.label} within {MAX_SECONDS:g} s (median)",
                 seconds <= MAX_SECONDS, f"{seconds:.2f} s"))
     return out
 
 
-def whiteness(df: pd.DataFrame) -> pd.DataFrame:
+def whiteness(df: pd.DataFrame, d: Design = ARMA) -> pd.DataFrame:
     """The prediction: healthy fresh loops whose validation innovations Ljung–Box rejects
     at :data:`LB_ALPHA`, and the noise models chosen, per family."""
     rows = []
     h = df[(df.part == "fresh") & (df["class"] == "none")]
-    for f in FAMILIES:
+    for f in d.families:
         g = h[h.family == f]
         rows.append({"family": f, "healthy loops": len(g),
                      "whiteness rejected": rate_text(int((g.whiteness_p < LB_ALPHA).sum()),
@@ -212,22 +244,22 @@ def whiteness(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def report(df: pd.DataFrame) -> str:
-    w = verdicts(df)
+def report(df: pd.DataFrame, d: Design = ARMA) -> str:
+    alt = d.alt
+    w = verdicts(df, d)
     fresh = df[df.part == "fresh"]
-    sec = {f: float(fresh[fresh.family == f].seconds.median()) for f in FAMILIES}
-    crit = criterion(w, sec["arma"])
+    sec = {f: float(fresh[fresh.family == f].seconds.median()) for f in d.families}
+    crit = criterion(w, sec[alt], d)
     adopted = all(ok for _, ok, _ in crit)
-    white = whiteness(df)
+    white = whiteness(df, d)
     rej = {r["family"]: r["whiteness rejected"] for _, r in white.iterrows()}
     h = fresh[fresh["class"] == "none"]
-    n_rej = {f: int((h[h.family == f].whiteness_p < LB_ALPHA).sum()) for f in FAMILIES}
+    n_rej = {f: int((h[h.family == f].whiteness_p < LB_ALPHA).sum()) for f in d.families}
     lines = [
-        "# The diagnosis with an ARMA noise model", "",
-        "Generated by `experiments/arma_diagnosis.py` (the change, the recordings, the "
+        f"# {d.title}", "",
+        f"Generated by `experiments/{d.stem}.py` (the change, the recordings, the "
         "prediction and the criterion, written before the run, in its docstring). **ar**: "
-        "the shipped noise model (AR / integrated AR by BIC); **arma**: that model and "
-        "ARMA / ARIMA models of low order by BIC in every noise model the diagnosis fits. "
+        f"the shipped noise model (AR / integrated AR by BIC); **{alt}**: {d.what}. "
         "Sets A–I carry the stored `ar` verdicts (in-sample for the diagnosis's "
         "thresholds); the two fresh sets were drawn for this run and diagnosed under "
         "both. Scores of 16 weigh the eight classes equally (95 % intervals); Wilson 95 % "
@@ -235,37 +267,37 @@ def report(df: pd.DataFrame) -> str:
         f"- Recordings: {int((w.part == 'A–I').sum())} of sets A–I, "
         f"{int((w.part == 'fresh').sum())} fresh.",
         f"- Time per recording on the fresh sets (median, same run): {sec['ar']:.2f} s "
-        f"under AR, {sec['arma']:.2f} s under ARMA (ratio "
-        f"{sec['arma'] / max(sec['ar'], 1e-9):.2f}).", "",
-        to_markdown(scores(w)), "",
+        f"under AR, {sec[alt]:.2f} s under {d.label} (ratio "
+        f"{sec[alt] / max(sec['ar'], 1e-9):.2f}).", "",
+        to_markdown(scores(w, d)), "",
         "## The prediction: whiter innovations", "",
         to_markdown(white), "",
-        ("Held" if n_rej["arma"] < n_rej["ar"] else "Not held")
+        ("Held" if n_rej[alt] < n_rej["ar"] else "Not held")
         + f": Ljung–Box rejected the healthy loops' validation innovations on "
-        f"{rej['ar']} under AR and {rej['arma']} under ARMA.", "",
+        f"{rej['ar']} under AR and {rej[alt]} under {d.label}.", "",
         "## The criterion", "",
         to_markdown(pd.DataFrame([{"part": what, "met": "yes" if ok else "no",
                                    "measured": text} for what, ok, text in crit])), "",
         ("**Adopted**: every part met." if adopted else
          "**Not adopted**: " + "; ".join(what for what, ok, _ in crit if not ok)
          + " failed. The shipped noise model is unchanged."), "",
-        "## Per class", "", to_markdown(per_class(w)), "",
+        "## Per class", "", to_markdown(per_class(w, d)), "",
     ]
     return "\n".join(lines) + "\n"
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv)
-    stem = OUT / "arma_diagnosis"
+def main(argv: list[str] | None = None, d: Design = ARMA, doc: str | None = None) -> int:
+    args = jobs_reuse_args(doc or __doc__, "re-make the report from the stored CSV", argv)
+    stem = OUT / d.stem
     if args.reuse and stem.with_suffix(".csv").exists():
         df = pd.read_csv(stem.with_suffix(".csv"))
     else:
-        fresh_sets()
-        todo, stored = cases()
+        fresh_sets(d)
+        todo, stored = cases(d)
         df = pd.concat([stored, run(one, todo, args.jobs)], ignore_index=True)
         df = df.sort_values(["part", "generator", "set", "name", "family"],
                             kind="stable").reset_index(drop=True)
-    publish(df, report(df), stem)
+    publish(df, report(df, d), stem)
     return 0
 
 

@@ -126,3 +126,15 @@ def test_diagnose_fits_the_family_it_is_asked_for():
     assert d0.to_json()["noise_model"]["ma_order"] == 0
     with pytest.raises(ValueError, match="noise_family"):
         diagnose(rec, model, noise_family="garch")
+
+
+def test_the_tests_family_defaults_to_the_fits_and_is_checked():
+    from stictionbench.diagnosis.diagnose import compare
+
+    rec, model = _loop()
+    both = compare(rec, model, noise_family="arma")
+    assert (both.noise_family, both.test_noise_family) == ("arma", "arma")
+    tests = compare(rec, model, test_noise_family="arma")
+    assert (tests.noise_family, tests.test_noise_family) == ("ar", "arma")
+    with pytest.raises(ValueError, match="test_noise_family"):
+        diagnose(rec, model, test_noise_family="ma")

@@ -174,8 +174,10 @@ class Comparison:
     #: the blocks' number and layout (:func:`.blocks.split_blocks`), shared likewise
     n_blocks: int = N_BLOCKS
     block_layout: str = "interleaved"
-    #: the noise models' family (:func:`.noise.fit_noise_model`), shared likewise
+    #: the noise models' family (:func:`.noise.fit_noise_model`), shared likewise, and
+    #: that of the likelihood tests' noise model (:func:`validate`)
     noise_family: str = "ar"
+    test_noise_family: str = "ar"
 
 
 @dataclass
@@ -248,7 +250,8 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
             hp_factor: float = HP_FACTOR,
             lp_factor: float = 5.0, pem: bool = True,
             op_range: tuple[float, float] | None = None, n_blocks: int = N_BLOCKS,
-            block_layout: str = "interleaved", noise_family: str = "ar") -> Comparison:
+            block_layout: str = "interleaved", noise_family: str = "ar",
+            test_noise_family: str | None = None) -> Comparison:
     """Stage 1: the nominal model (given, or identified FOPDT) replayed from the recorded
     OP, its training/validation split and its output-error fit (see the module
     docstring). ``pem`` (default) asks :func:`fit` to refit every hypothesis by its
@@ -258,9 +261,12 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
     (:mod:`.op_range`). ``n_blocks`` and ``block_layout`` cut the record after the burn-in
     into training and validation blocks (:func:`.blocks.split_blocks`; default five,
     interleaved). ``noise_family`` is that of every noise model the later stages fit
-    (:func:`.noise.fit_noise_model`; default ``"ar"``)."""
-    if noise_family not in NOISE_FAMILIES:
-        raise ValueError(f"noise_family must be one of {NOISE_FAMILIES}, got {noise_family!r}")
+    (:func:`.noise.fit_noise_model`; default ``"ar"``), ``test_noise_family`` that of the
+    likelihood tests' alone (default: ``noise_family``)."""
+    test_noise_family = noise_family if test_noise_family is None else test_noise_family
+    for what, fam in (("noise_family", noise_family), ("test_noise_family", test_noise_family)):
+        if fam not in NOISE_FAMILIES:
+            raise ValueError(f"{what} must be one of {NOISE_FAMILIES}, got {fam!r}")
     _check(rec)
     model = _nominal_model(rec, model, hp_factor)
     n, Ts = len(rec), rec.Ts
@@ -307,7 +313,8 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
     val_blocks = [[float(rec.t[b[0]]), float(rec.t[b[-1]])]
                   for b in np.split(split.val, np.flatnonzero(np.diff(split.val) > 1) + 1)]
     return Comparison(rec, model, ctx, prob, burn, int(edges[1]), val_blocks, shifts,
-                      nominal, pem, hp_factor, int(n_blocks), block_layout, noise_family)
+                      nominal, pem, hp_factor, int(n_blocks), block_layout, noise_family,
+                      test_noise_family)
 
 
 def _band_for_residual_line(ctx: Context, nominal: Fit, burn: int,
@@ -573,7 +580,7 @@ def validate(cmp: Comparison, fits: dict[str, Fit], ham: HammersteinResult | Non
     return _validate(fits, c.pv, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val,
                      alpha=alpha, min_improvement=min_improvement, horizon=horizon,
                      cycle=cycle, own_resolution=own_resolution(cmp.rec, c.model_given),
-                     highpass_order=highpass_order, noise_family=cmp.noise_family)
+                     highpass_order=highpass_order, noise_family=cmp.test_noise_family)
 
 
 #: the second look's slow-load high-pass as a fraction of the main band's
@@ -642,7 +649,7 @@ def second_look(cmp: Comparison, verdict: Verdict, *, alpha: float = ALPHA,
     c2 = compare(cmp.rec, cmp.model, hp_factor=cmp.hp_factor * SLOW_LINE_HP,
                  lp_factor=lp_factor, pem=cmp.pem, op_range=cmp.ctx.op_range,
                  n_blocks=cmp.n_blocks, block_layout=cmp.block_layout,
-                 noise_family=cmp.noise_family)
+                 noise_family=cmp.noise_family, test_noise_family=cmp.test_noise_family)
     loc2 = locate(c2)
     fits2, _ = fit(c2, hypothesise(c2, loc2, (name,)))
     if name not in fits2:
@@ -685,7 +692,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              slip_jump_bootstrap: int = 0, bootstrap_seed: int = 0,
              linear_input_gate: bool = True, test_highpass_order: int = 2,
              detectability: bool = True, n_blocks: int = N_BLOCKS,
-             block_layout: str = "interleaved", noise_family: str = "ar") -> Diagnosis:
+             block_layout: str = "interleaved", noise_family: str = "ar",
+             test_noise_family: str | None = None) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -753,6 +761,11 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         ``"ar"`` (default) an AR or integrated AR model, ``"arma"`` also ARMA / ARIMA
         models of low order, chosen by BIC (``reports/concealed/arma_diagnosis.md``
         compares the two).
+    test_noise_family : {"ar", "arma"}, optional
+        The family of the likelihood tests' noise model alone (:func:`validate`; default:
+        ``noise_family``): ``test_noise_family="arma"`` keeps AR models in the fits and an
+        ARMA family in the tests (``reports/concealed/arma_stages.md``,
+        ``reports/concealed/arma_tests.md``).
 
     Returns
     -------
@@ -774,7 +787,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         check_request(rec, model, slip_jump_bootstrap, bootstrap_seed)
     cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor, pem=pem,
                   op_range=op_range, n_blocks=n_blocks, block_layout=block_layout,
-                  noise_family=noise_family)
+                  noise_family=noise_family, test_noise_family=test_noise_family)
     loc = locate(cmp)
     names = hypothesise(cmp, loc, hypotheses)
     fits, ham = fit(cmp, names, alpha=alpha, linear_input_gate=linear_input_gate)
