@@ -278,7 +278,8 @@ def report(df: pd.DataFrame, d: Design = ARMA) -> str:
         "## The criterion", "",
         to_markdown(pd.DataFrame([{"part": what, "met": "yes" if ok else "no",
                                    "measured": text} for what, ok, text in crit])), "",
-        ("**Adopted**: every part met." if adopted else
+        ("**Every part met.** Whether it became the default: `docs/diagnosis.md`."
+         if adopted else
          "**Not adopted**: " + "; ".join(what for what, ok, _ in crit if not ok)
          + " failed. The shipped noise model is unchanged."), "",
         "## Per class", "", to_markdown(per_class(w, d)), "",

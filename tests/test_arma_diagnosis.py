@@ -53,7 +53,7 @@ def test_arma_that_clears_a_false_alarm_and_loses_nothing_is_adopted():
     df = _frame("none")
     assert all(_crit(df).values())
     text = ad.report(df)
-    assert "**Adopted**" in text
+    assert "**Every part met.**" in text
     assert "Held: Ljung–Box rejected the healthy loops' validation innovations on " \
         "4/4 = 100 % [51, 100] under AR and 0/4 = 0 %" in text
 
