@@ -138,3 +138,27 @@ def test_the_tests_family_defaults_to_the_fits_and_is_checked():
     assert (tests.noise_family, tests.test_noise_family) == ("ar", "arma")
     with pytest.raises(ValueError, match="test_noise_family"):
         diagnose(rec, model, test_noise_family="ma")
+
+
+def test_the_command_takes_the_tests_family(tmp_path, capsys):
+    import json
+
+    from stictionbench.cli import main
+    from stictionbench.io import write_recording
+
+    rec, _ = _loop()
+    csv = tmp_path / "r.csv"
+    write_recording(rec, csv)
+    model = tmp_path / "m.yaml"
+    model.write_text("process: {gain: 2.0, time_constant: 10.0, dead_time: 3.0}\n")
+    out = tmp_path / "d.json"
+    assert main(["diagnose", str(csv), "--model", str(model), "--json", str(out),
+                 "--test-noise-family", "arma"]) == 0
+    details = json.loads(out.read_text())["details"]
+    assert (details["noise_family"], details["test_noise_family"]) == ("ar", "arma")
+    capsys.readouterr()
+    bad = tmp_path / "bad.json"
+    assert main(["diagnose", str(csv), "--json", str(bad), "--test-noise-family",
+                 "garch"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--test-noise-family" in err[0] and not bad.exists()

@@ -836,6 +836,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     d.details["band_dof"] = dof
     d.details["linear_input_gate"] = bool(linear_input_gate and cmp.ctx.model_given)
     d.details["test_highpass_order"] = test_highpass_order if cmp.ctx.model_given else None
+    d.details["noise_family"] = cmp.noise_family
+    d.details["test_noise_family"] = cmp.test_noise_family
     d.details["nrmse_gate"] = gate
     if detectable is not None:
         d.details["minimum_detectable"] = detectable
