@@ -195,17 +195,16 @@ def _arma_fit(x: np.ndarray, p: int, q: int) -> tuple[np.ndarray, np.ndarray]:
     from scipy.optimize import least_squares
     from statsmodels.tsa.arima.estimators.hannan_rissanen import hannan_rissanen
 
-    x0 = np.zeros(p + q)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             hr, _ = hannan_rissanen(x, ar_order=p, ma_order=q, demean=False,
                                     initial_ar_order=MAX_ORDER, unbiased=False)
-        start = np.r_[-np.asarray(hr.ar_params, float), invertible(np.r_[1.0, hr.ma_params])[1:]]
-        if np.all(np.isfinite(start)):
-            x0 = start
+        x0 = np.r_[-np.asarray(hr.ar_params, float), invertible(np.r_[1.0, hr.ma_params])[1:]]
     except (ValueError, np.linalg.LinAlgError):
-        pass
+        x0 = np.full(p + q, np.nan)   # no start from Hannan-Rissanen: white noise instead
+    if not np.all(np.isfinite(x0)):
+        x0 = np.zeros(p + q)
     skip = MAX_ORDER
 
     def resid(th: np.ndarray) -> np.ndarray:
