@@ -39,7 +39,6 @@ writes ``reports/concealed/arma_diagnosis.{md,csv}`` (about 40 minutes on 2 core
 
 from __future__ import annotations
 
-import subprocess
 import sys
 import time
 from dataclasses import dataclass
@@ -52,21 +51,22 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fresh_recordings import jobs_reuse_args, publish, run  # noqa: E402
+from verdict_scores import (  # noqa: E402
+    DATA,
+    PER_CLASS,
+    draw_sets,
+    level_score,
+    level_scores,
+    per_class_rates,
+)
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.io import read_recording  # noqa: E402
-from stictionbench.rates import (  # noqa: E402
-    balanced_score,
-    balanced_text,
-    mcnemar_p,
-    rate_text,
-)
+from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
-DATA = ROOT / ".cache" / "blindgen"
 OUT = ROOT / "reports" / "concealed"
 SETS = {"A": ("a", "b", "d", "f", "h"), "C": ("c", "e", "g", "i")}
-PER_CLASS = 12
 #: the criterion's largest loss, and smallest gain, of score of 16 at a level
 MAX_LOSS = 0.25
 MIN_GAIN = 0.25
@@ -107,14 +107,8 @@ FRESH, FAMILIES = ARMA.fresh, ARMA.families
 
 
 def fresh_sets(d: Design = ARMA) -> None:
-    """Write the fresh sets with their generators (same seed, byte-identical files)."""
-    for name, (gen, seed) in d.fresh.items():
-        out = DATA / name
-        if (out / "truth.csv").exists():
-            continue
-        subprocess.run([sys.executable, str(ROOT / "experiments" / gen / "generate.py"),
-                        "--out", str(out), "--per-class", str(PER_CLASS),
-                        "--first-seed", str(seed)], check=True, stdout=subprocess.DEVNULL)
+    """Write the design's fresh sets with their generators (byte-identical files)."""
+    draw_sets(d.fresh, PER_CLASS)
 
 
 def one(part: str, gen: str, set_: str, name: str, cls: str, level: int,
@@ -163,38 +157,12 @@ def verdicts(df: pd.DataFrame, d: Design = ARMA) -> pd.DataFrame:
 def scores(w: pd.DataFrame, d: Design = ARMA) -> pd.DataFrame:
     """Per part, generator and level: each family's score of 16 and healthy loops called
     physics, and the paired changes."""
-    rows = []
-    for (part, gen), g in [*w.groupby(["part", "generator"]),
-                           *[((p, "both"), g) for p, g in w.groupby("part")]]:
-        for lv in (1, 2):
-            gl = g[g.level == lv]
-            h = gl[gl["class"] == "none"]
-            row = {"part": part, "generator": gen, "level": lv}
-            for f in d.families:
-                row[f"{f}: of 16"] = balanced_text(gl[f] == gl["class"], gl["class"])
-                row[f"{f}: healthy called physics"] = rate_text(
-                    int((h[f] != "none").sum()), len(h))
-            a, b = gl[d.alt] == gl["class"], gl.ar == gl["class"]
-            only_m, only_a = int((a & ~b).sum()), int((b & ~a).sum())
-            row[f"right only under {d.label} / only AR"] = (
-                f"{only_m} / {only_a} (p = {mcnemar_p(only_m, only_a):.2g})")
-            rows.append(row)
-    return pd.DataFrame(rows)
+    return level_scores(w, d.families, d.alt, "ar", f"right only under {d.label} / only AR")
 
 
 def per_class(w: pd.DataFrame, d: Design = ARMA) -> pd.DataFrame:
     """Named right per class and level, AR against the variant, each part pooled."""
-    rows = []
-    for (part, cls, lv), g in w.groupby(["part", "class", "level"]):
-        rows.append({"part": part, "class": cls, "level": lv,
-                     **{f: rate_text(int((g[f] == cls).sum()), len(g))
-                        for f in d.families}})
-    return pd.DataFrame(rows)
-
-
-def _score(g: pd.DataFrame, family: str, level: int) -> float:
-    gl = g[g.level == level]
-    return balanced_score(gl[family] == gl["class"], gl["class"])[0]
+    return per_class_rates(w, d.families)
 
 
 def _healthy_physics(g: pd.DataFrame, family: str) -> int:
@@ -210,7 +178,7 @@ def criterion(w: pd.DataFrame, seconds: float,
         g = w[w.part == part]
         n_h = int((g["class"] == "none").sum())
         fa = {f: _healthy_physics(g, f) for f in d.families}
-        sc = {(f, lv): _score(g, f, lv) for f in d.families for lv in (1, 2)}
+        sc = {(f, lv): level_score(g, f, lv) for f in d.families for lv in (1, 2)}
         numbers = ", ".join(f"level {lv} {sc['ar', lv]:.2f} → {sc[alt, lv]:.2f}"
                             for lv in (1, 2))
         out.append((f"{label}: no more healthy loops called physics",

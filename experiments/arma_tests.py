@@ -52,14 +52,14 @@ from arma_diagnosis import (  # noqa: E402
     ARMA,
     OUT,
     Design,
-    fresh_sets,
     main,
     one,
     scores,
     verdicts,
     whiteness,
 )
-from fresh_recordings import publish, run  # noqa: E402
+from fresh_recordings import jobs_reuse_args, publish, run  # noqa: E402
+from verdict_scores import DATA, draw_sets  # noqa: E402
 
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
@@ -79,7 +79,7 @@ def earlier_cases() -> list[tuple]:
     todo = []
     for s, (folder, _) in EARLIER.items():
         gen = "A" if folder == "blind_generator" else "C"
-        t = pd.read_csv(ROOT / ".cache" / "blindgen" / s / "truth.csv")
+        t = pd.read_csv(DATA / s / "truth.csv")
         todo += [("fresh", gen, s, r["name"], r["class"], int(r.level), f)
                  for _, r in t.iterrows() for f in TESTS_ONLY.families]
     return todo
@@ -116,22 +116,15 @@ def earlier(jobs: int, reuse: bool) -> None:
     if reuse and stem.with_suffix(".csv").exists():
         df = pd.read_csv(stem.with_suffix(".csv"))
     else:
-        fresh_sets(Design("ar", "AR", EARLIER, "", "", ""))
+        draw_sets(EARLIER)
         df = run(one, earlier_cases(), jobs).sort_values(
             ["set", "name", "family"], kind="stable").reset_index(drop=True)
     publish(df, earlier_report(df), stem)
 
 
 def cli(argv: list[str] | None = None) -> int:
-    import argparse
-
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--reuse", action="store_true",
-                    help="re-make the report from the stored CSV")
-    ap.add_argument("--earlier", action="store_true",
-                    help="score the variant on the earlier comparisons' fresh sets")
-    a = ap.parse_args(argv)
+    a = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv, flags={
+        "--earlier": "score the variant on the earlier comparisons' fresh sets"})
     if a.earlier:
         earlier(a.jobs, a.reuse)
         return 0

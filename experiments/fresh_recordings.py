@@ -44,15 +44,17 @@ def recording(family: str, cls: str, level: int,
     return c, cf.nominal_model(c), rec
 
 
-def jobs_reuse_args(doc: str, reuse_help: str,
-                    argv: list[str] | None = None) -> argparse.Namespace:
+def jobs_reuse_args(doc: str, reuse_help: str, argv: list[str] | None = None,
+                    flags: dict[str, str] | None = None) -> argparse.Namespace:
     """The command line of an experiment that diagnoses in parallel and can re-make its
     report from what an earlier run stored: ``--jobs`` (workers, default 2) and
-    ``--reuse`` (``reuse_help`` says what it keeps); the description is ``doc``'s first
-    line."""
+    ``--reuse`` (``reuse_help`` says what it keeps), and any further on/off ``flags``
+    (``{"--name": help}``); the description is ``doc``'s first line."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--reuse", action="store_true", help=reuse_help)
+    for flag, text in (flags or {}).items():
+        ap.add_argument(flag, action="store_true", help=text)
     return ap.parse_args(argv)
 
 

@@ -35,7 +35,6 @@ writes ``reports/concealed/split_vote.{md,csv}`` (about 35 minutes on 2 cores).
 
 from __future__ import annotations
 
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -47,23 +46,23 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fresh_recordings import jobs_reuse_args, publish, run  # noqa: E402
+from verdict_scores import (  # noqa: E402
+    DATA,
+    PER_CLASS,
+    draw_sets,
+    level_score,
+    level_scores,
+    per_class_rates,
+)
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.io import read_recording  # noqa: E402
-from stictionbench.rates import (  # noqa: E402
-    balanced_score,
-    balanced_text,
-    mcnemar_p,
-    rate_text,
-)
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
-DATA = ROOT / ".cache" / "blindgen"
 OUT = ROOT / "reports" / "concealed"
 SETS = {"A": ("a", "b", "d", "f", "h"), "C": ("c", "e", "g", "i")}
 #: fresh set → (generator folder, first seed): drawn for this experiment
 FRESH = {"vote_a": ("blind_generator", 75000), "vote_c": ("blind_generator_c", 77000)}
-PER_CLASS = 12
 SPLITS = {"interleaved": 5, "n3": 3, "n9": 9}
 RULES = ("shipped", "vote", "confirm")
 #: the criterion's largest loss of score of 16 at a level
@@ -74,13 +73,7 @@ MAX_SECONDS = 2.0
 
 def fresh_sets() -> None:
     """Write the fresh sets with their generators (same seed, byte-identical files)."""
-    for name, (gen, seed) in FRESH.items():
-        out = DATA / name
-        if (out / "truth.csv").exists():
-            continue
-        subprocess.run([sys.executable, str(ROOT / "experiments" / gen / "generate.py"),
-                        "--out", str(out), "--per-class", str(PER_CLASS),
-                        "--first-seed", str(seed)], check=True, stdout=subprocess.DEVNULL)
+    draw_sets(FRESH, PER_CLASS)
 
 
 def one(part: str, gen: str, set_: str, name: str, cls: str, level: int,
@@ -140,39 +133,12 @@ def verdicts(df: pd.DataFrame) -> pd.DataFrame:
 def scores(w: pd.DataFrame) -> pd.DataFrame:
     """Per part, generator and level: each rule's score of 16 and healthy loops called
     physics, and the paired changes of the vote against the shipped rule."""
-    rows = []
-    for (part, gen), g in [*w.groupby(["part", "generator"]),
-                           *[((p, "both"), g) for p, g in w.groupby("part")]]:
-        for lv in (1, 2):
-            gl = g[g.level == lv]
-            h = gl[gl["class"] == "none"]
-            row = {"part": part, "generator": gen, "level": lv}
-            for rule in RULES:
-                row[f"{rule}: of 16"] = balanced_text(gl[rule] == gl["class"], gl["class"])
-                row[f"{rule}: healthy called physics"] = rate_text(
-                    int((h[rule] != "none").sum()), len(h))
-            a, b = gl.vote == gl["class"], gl.shipped == gl["class"]
-            only_v, only_s = int((a & ~b).sum()), int((b & ~a).sum())
-            row["right only by vote / only shipped"] = (
-                f"{only_v} / {only_s} (p = {mcnemar_p(only_v, only_s):.2g})")
-            rows.append(row)
-    return pd.DataFrame(rows)
+    return level_scores(w, RULES, "vote", "shipped", "right only by vote / only shipped")
 
 
 def per_class(w: pd.DataFrame) -> pd.DataFrame:
     """Named right per class and level, shipped against vote, each part pooled."""
-    rows = []
-    for (part, cls, lv), g in w.groupby(["part", "class", "level"]):
-        rows.append({"part": part, "class": cls, "level": lv,
-                     "shipped": rate_text(int((g.shipped == cls).sum()), len(g)),
-                     "vote": rate_text(int((g.vote == cls).sum()), len(g)),
-                     "confirm": rate_text(int((g.confirm == cls).sum()), len(g))})
-    return pd.DataFrame(rows)
-
-
-def _score(g: pd.DataFrame, rule: str, level: int) -> float:
-    gl = g[g.level == level]
-    return balanced_score(gl[rule] == gl["class"], gl["class"])[0]
+    return per_class_rates(w, ("shipped", "vote", "confirm"))
 
 
 def criterion(w: pd.DataFrame, seconds: float) -> list[tuple[str, bool, str]]:
@@ -184,11 +150,11 @@ def criterion(w: pd.DataFrame, seconds: float) -> list[tuple[str, bool, str]]:
         fs, fv = int((h.shipped != "none").sum()), int((h.vote != "none").sum())
         out.append((f"{label}: fewer healthy loops called physics", fv < fs,
                     f"{fs} → {fv} of {len(h)}"))
-        losses = {lv: _score(g, "shipped", lv) - _score(g, "vote", lv) for lv in (1, 2)}
+        losses = {lv: level_score(g, "shipped", lv) - level_score(g, "vote", lv) for lv in (1, 2)}
         out.append((f"{label}: score of 16 lost at most {MAX_LOSS} at each level",
                     all(x <= MAX_LOSS for x in losses.values()),
-                    ", ".join(f"level {lv} {_score(g, 'shipped', lv):.2f} → "
-                              f"{_score(g, 'vote', lv):.2f}" for lv in (1, 2))))
+                    ", ".join(f"level {lv} {level_score(g, 'shipped', lv):.2f} → "
+                              f"{level_score(g, 'vote', lv):.2f}" for lv in (1, 2))))
     out.append((f"a voted diagnosis within {MAX_SECONDS:g} s (median)",
                 seconds <= MAX_SECONDS, f"{seconds:.2f} s"))
     return out
