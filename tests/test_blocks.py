@@ -13,10 +13,11 @@ import pytest
 
 from stictionbench.diagnosis import diagnose
 from stictionbench.diagnosis.blocks import LAYOUTS, N_BLOCKS, split_blocks
-from stictionbench.diagnosis.model import NominalModel
-from stictionbench.recording import Recording
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from fopdt_record import fopdt_record  # noqa: E402
 
 
 @pytest.mark.parametrize("layout", LAYOUTS)
@@ -57,21 +58,8 @@ def test_bad_splits_are_refused(kwargs, match):
         split_blocks(1000, 10, **kwargs)
 
 
-def _loop(seed: int = 3, n: int = 1500):
-    rng = np.random.default_rng(seed)
-    t = np.arange(n, dtype=float)
-    op = np.cumsum(rng.normal(0, 0.3, n)) * 0.1 + 50 + 5 * (np.sin(t / 40) > 0)
-    a = np.exp(-1 / 10.0)
-    pv = np.zeros(n)
-    for k in range(3, n):
-        pv[k] = a * pv[k - 1] + 2.0 * (1 - a) * (op[k - 3] - 50)
-    pv += rng.normal(0, 0.05, n)
-    model = NominalModel(gain=2.0, time_constant=10.0, dead_time=3.0, source="given")
-    return Recording.from_arrays(t, pv, op, warn=False), model
-
-
 def test_diagnose_uses_the_layout_it_is_given():
-    rec, model = _loop()
+    rec, model = fopdt_record()
     shipped = diagnose(rec, model, detectability=False)
     again = diagnose(rec, model, detectability=False, n_blocks=5, block_layout="interleaved")
     assert shipped.missing_physics == again.missing_physics
@@ -93,7 +81,7 @@ def test_the_second_look_judges_on_the_blocks_of_the_main_comparison():
 
     from stictionbench.diagnosis.diagnose import compare, second_look
 
-    rec, model = _loop()
+    rec, model = fopdt_record()
     cmp = compare(rec, model, n_blocks=3, block_layout="train_first")
     look = second_look(cmp, SimpleNamespace(pick="none"))
     assert look is not None

@@ -4,7 +4,9 @@ model with an MA part, the root reflection, and the family reaching ``diagnose``
 
 from __future__ import annotations
 
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +19,10 @@ from stictionbench.diagnosis.noise import (
     fit_noise_model,
     invertible,
 )
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from fopdt_record import fopdt_record  # noqa: E402
 
 
 def _arima111(seed: int, n: int = 2000, load: float = 0.06) -> np.ndarray:
@@ -99,25 +105,8 @@ def test_reflecting_a_root_keeps_the_spectrum_shape_and_makes_it_invertible():
     assert np.array_equal(invertible(np.ones(1)), np.ones(1))
 
 
-def _loop(seed: int = 3, n: int = 1500):
-    from stictionbench.diagnosis.model import NominalModel
-    from stictionbench.recording import Recording
-
-    rng = np.random.default_rng(seed)
-    t = np.arange(n, dtype=float)
-    op = np.cumsum(rng.normal(0, 0.3, n)) * 0.1 + 50 + 5 * (np.sin(t / 40) > 0)
-    a = np.exp(-1 / 10.0)
-    pv = np.zeros(n)
-    for k in range(3, n):
-        pv[k] = a * pv[k - 1] + 2.0 * (1 - a) * (op[k - 3] - 50)
-    pv += lfilter([0.05], [1.0, -0.98], np.cumsum(rng.normal(0, 0.02, n)))
-    pv += rng.normal(0, 0.05, n)
-    model = NominalModel(gain=2.0, time_constant=10.0, dead_time=3.0, source="given")
-    return Recording.from_arrays(t, pv, op, warn=False), model
-
-
 def test_diagnose_fits_the_family_it_is_asked_for():
-    rec, model = _loop()
+    rec, model = fopdt_record(load=0.02)
     d = diagnose(rec, model, detectability=False, noise_family="arma")
     nm = d.to_json()["noise_model"]
     assert {"ma_order", "ma", "ar_order", "family"} <= set(nm)
@@ -131,7 +120,7 @@ def test_diagnose_fits_the_family_it_is_asked_for():
 def test_the_tests_family_defaults_to_the_fits_and_is_checked():
     from stictionbench.diagnosis.diagnose import compare
 
-    rec, model = _loop()
+    rec, model = fopdt_record(load=0.02)
     both = compare(rec, model, noise_family="arma")
     assert (both.noise_family, both.test_noise_family) == ("arma", "arma")
     tests = compare(rec, model, test_noise_family="arma")
@@ -146,7 +135,7 @@ def test_the_command_takes_the_tests_family(tmp_path, capsys):
     from stictionbench.cli import main
     from stictionbench.io import write_recording
 
-    rec, _ = _loop()
+    rec, _ = fopdt_record(load=0.02)
     csv = tmp_path / "r.csv"
     write_recording(rec, csv)
     model = tmp_path / "m.yaml"
