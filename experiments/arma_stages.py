@@ -14,8 +14,10 @@ and the set-point gain test (:mod:`stictionbench.diagnosis.gain`). Here the 264 
 - ``all_but_tests``: ARMA in the refit, the valve identification and the gain test, AR in
   the likelihood tests;
 
-(each by replacing the other stages' ``fit_noise_model`` with the AR family for the
-call; nothing in the package changes) beside the stored ``ar`` and ``arma`` verdicts.
+beside the stored ``ar`` and ``arma`` verdicts. The first run forced the other stages'
+``fit_noise_model`` to the AR family by patching; it is now run with ``diagnose``'s own
+``noise_family`` (the fits) and ``test_noise_family`` (the tests), added after it, which
+give the same verdicts (the stored CSV re-made byte-identical).
 
 **Prediction, written before the run** (it follows from 9 of the 24 extra false alarms
 ending with an AR model in their tests under ``arma``, so their tests were not what
@@ -30,9 +32,7 @@ Run: ``.venv/bin/python experiments/arma_stages.py [--jobs 2] [--reuse]`` after
 from __future__ import annotations
 
 import sys
-from contextlib import ExitStack
 from pathlib import Path
-from unittest import mock
 
 import pandas as pd
 
@@ -44,39 +44,22 @@ import arma_diagnosis as ad  # noqa: E402
 from fresh_recordings import jobs_reuse_args, publish, stored_or_run  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
-from stictionbench.diagnosis import noise as noise_mod  # noqa: E402
 from stictionbench.io import read_recording  # noqa: E402
 from stictionbench.rates import mcnemar_p, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
-#: the modules whose ``fit_noise_model`` each stage calls
-STAGES = {"tests": "stictionbench.diagnosis.evidence",
-          "refit": "stictionbench.diagnosis.diagnose",
-          "valve": "stictionbench.diagnosis.hammerstein",
-          "gain": "stictionbench.diagnosis.gain"}
-#: variant → the stages that keep the ARMA family
-VARIANTS = {"tests_only": ("tests",), "all_but_tests": ("refit", "valve", "gain")}
+#: variant → its ``diagnose`` keywords: where the ARMA family is kept
+VARIANTS = {"tests_only": {"noise_family": "ar", "test_noise_family": "arma"},
+            "all_but_tests": {"noise_family": "arma", "test_noise_family": "ar"}}
 ORDER = ("ar", "tests_only", "all_but_tests", "arma")
 
 
-def _ar_only(r, *args, family: str = "ar", **kw):  # noqa: ARG001 - the family is forced
-    return noise_mod.fit_noise_model(r, *args, family="ar", **kw)
-
-
 def one(part: str, gen: str, set_: str, name: str, level: int, variant: str) -> dict:
-    """One healthy recording diagnosed under ``arma`` with the stages outside
-    ``VARIANTS[variant]`` forced to the AR family."""
-    import importlib
-
+    """One healthy recording diagnosed under ``VARIANTS[variant]``."""
     src = ad.DATA / (set_ if part == "fresh" else f"set_{set_}")
     rec = read_recording(str(src / f"{name}.csv"), warn=False)
-    with ExitStack() as stack:
-        for stage, module in STAGES.items():
-            if stage not in VARIANTS[variant]:
-                stack.enter_context(mock.patch.object(importlib.import_module(module),
-                                                      "fit_noise_model", _ar_only))
-        d = diagnose(rec, load_model(src / f"{name}.model.yaml"), noise_family="arma")
+    d = diagnose(rec, load_model(src / f"{name}.model.yaml"), **VARIANTS[variant])
     return {"part": part, "generator": gen, "set": set_, "name": name, "level": level,
             "variant": variant, "predicted": d.missing_physics}
 

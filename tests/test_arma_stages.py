@@ -1,15 +1,12 @@
 """The stage-wise ARMA follow-up (``experiments/arma_stages.py``): on hand-made verdicts its
-table and prediction count the loops as its docstring says, and forcing a stage to the AR
-family reaches that stage only."""
+table and prediction count the loops as its docstring says, and each variant keeps the ARMA
+family where its name says."""
 
 from __future__ import annotations
 
-import importlib
 import sys
 from pathlib import Path
-from unittest import mock
 
-import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
@@ -45,14 +42,16 @@ def test_the_added_false_alarm_kept_by_the_tests_fails_the_prediction():
     assert "**Prediction not held**" in st.report(_frame("deadband", "none"))
 
 
-def test_forcing_a_stage_to_ar_reaches_that_module_only():
-    from scipy.signal import lfilter
+def test_each_variant_keeps_the_arma_family_where_its_name_says():
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from fopdt_record import fopdt_record
 
-    rng = np.random.default_rng(0)   # a load through a lag plus noise: an ARIMA(1,1,1)
-    r = lfilter([0.1], [1.0, -0.9], np.cumsum(0.06 * rng.normal(size=2000))) \
-        + rng.normal(size=2000)
-    ev = importlib.import_module(st.STAGES["tests"])
-    ham = importlib.import_module(st.STAGES["valve"])
-    with mock.patch.object(ev, "fit_noise_model", st._ar_only):
-        assert ev.fit_noise_model(r, family="arma").ma_order == 0
-        assert ham.fit_noise_model(r, family="arma").ma_order >= 1
+    from stictionbench.diagnosis import diagnose
+
+    rec, model = fopdt_record(load=0.02)
+    got = {v: diagnose(rec, model, detectability=False, **kw).details
+           for v, kw in st.VARIANTS.items()}
+    assert (got["tests_only"]["noise_family"], got["tests_only"]["test_noise_family"]) \
+        == ("ar", "arma")
+    assert (got["all_but_tests"]["noise_family"],
+            got["all_but_tests"]["test_noise_family"]) == ("arma", "ar")
