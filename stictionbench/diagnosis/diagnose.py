@@ -71,6 +71,7 @@ from .fit import (
 )
 from .gain import GainTest, setpoint_gain
 from .hammerstein import HP_FACTOR, HammersteinResult, fit_hammerstein
+from .harmonic import LineTest, line_test
 from .hypotheses import HYPOTHESES, NOMINAL_ALIGNMENT, Context, Nominal, lowpass_corner
 from .line import line_confinement
 from .linear_input import linear_input_test
@@ -95,7 +96,8 @@ from .process import (
 )
 
 __all__ = ["Diagnosis", "closed_loop_replay", "compare", "cycle_evidence", "diagnose", "fit",
-           "fit_fopdt", "hypothesise", "identify_fopdt", "locate", "name_gain_error",
+           "fit_fopdt", "harmonic_line", "hypothesise", "identify_fopdt", "line_waiver",
+           "locate", "name_gain_error",
            "after_comparison",
            "name_held_limit", "own_resolution", "validate", "valve_output"]
 
@@ -362,16 +364,33 @@ def locate(cmp: Comparison) -> Location:
     return Location(windows, band, spec, sigma, ratio)
 
 
+def harmonic_line(cmp: Comparison) -> LineTest | None:
+    """The strongest line of the nominal residual after the burn-in (high-passed only,
+    as :func:`locate` sees it) within the oscillatory disturbance's searched periods, by
+    Thomson's harmonic F-test (:func:`.harmonic.line_test`); ``None`` without a given
+    model (the residual of a FOPDT identified from the recording is not measured here)
+    or where the range holds no testable frequency."""
+    if not cmp.ctx.model_given:
+        return None
+    lo, hi = HYPOTHESES["oscillatory_disturbance"].bounds(cmp.ctx)[0]
+    r = _nominal_residual(cmp.ctx, cmp.nominal)[cmp.burn:]
+    return line_test(r, cmp.ctx.Ts, 1.0 / hi, 1.0 / lo)
+
+
 def hypothesise(cmp: Comparison, loc: Location,
-                names: tuple[str, ...] | None = None) -> tuple[str, ...]:
+                names: tuple[str, ...] | None = None, *,
+                line: LineTest | None = None, alpha: float = ALPHA) -> tuple[str, ...]:
     """Stage 3: the candidate physics, seeded with what the residual shows: its line
     periods on the training blocks (:func:`.locate.tone_periods`: a Welch bin is wider
     than a sinusoid fit's cost basin, and a period off by a few per cent drifts out of
     phase over the record), its dominant periods and the centre of the located band
-    become starting periods of the oscillatory-disturbance fit."""
+    become starting periods of the oscillatory-disturbance fit, and so does the period
+    of a ``line`` (:func:`harmonic_line`) significant at ``alpha``."""
     lo, hi = HYPOTHESES["oscillatory_disturbance"].bounds(cmp.ctx)[0]
     train = cmp.prob.train[cmp.prob.train >= cmp.burn]
     periods = tone_periods(cmp.nominal.resid, train, cmp.ctx.Ts, lo, hi)
+    if line is not None and line.significant(alpha):
+        periods.append(line.period_s)
     periods += dominant_periods(cmp.nominal.resid[cmp.burn:], cmp.ctx.Ts)
     if loc.band and loc.band[0] > 0:
         periods.append(2.0 / (loc.band[0] + loc.band[1]))
@@ -565,22 +584,39 @@ def cycle_evidence(rec: Recording, model: NominalModel, valve: dict[str, Any], f
 
 def validate(cmp: Comparison, fits: dict[str, Fit], ham: HammersteinResult | None = None, *,
              alpha: float = ALPHA, min_improvement: float = MIN_IMPROVEMENT,
-             highpass_order: int = 2) -> Verdict:
+             highpass_order: int = 2, line: LineTest | None = None) -> Verdict:
     """Stage 5: prediction-error evidence (:func:`.evidence.validate`), one step and
     ``τ + θ`` ahead (the loop's time scale), and, with a valve identification ``ham``,
     whether its valve reproduces the recorded oscillation in closed loop
     (:func:`cycle_evidence`); the dead time's own-resolution rule only against a given
     model on a recording with set-point excitation (:func:`own_resolution`);
     ``highpass_order`` the high-pass of the output errors the tests whiten against a given
-    model (:func:`.openloop.likelihood_highpass`)."""
+    model (:func:`.openloop.likelihood_highpass`); a ``line`` (:func:`harmonic_line`)
+    significant at ``alpha`` at the fitted disturbance's period makes the oscillatory
+    disturbance's practical significance its own resolution too (:func:`line_waiver`)."""
     c = cmp.ctx
     horizon = max(1, int(round((c.tau + c.theta) / c.Ts)))
     cycle = None if ham is None else \
         cycle_evidence(cmp.rec, cmp.model, ham.to_dict(), cmp.prob.f_hp)
+    own = own_resolution(cmp.rec, c.model_given) | line_waiver(line, fits, alpha)
     return _validate(fits, c.pv, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.train, cmp.prob.val,
                      alpha=alpha, min_improvement=min_improvement, horizon=horizon,
-                     cycle=cycle, own_resolution=own_resolution(cmp.rec, c.model_given),
+                     cycle=cycle, own_resolution=own,
                      highpass_order=highpass_order, noise_family=cmp.test_noise_family)
+
+
+def line_waiver(line: LineTest | None, fits: dict[str, Fit], alpha: float) -> frozenset[str]:
+    """``{"oscillatory_disturbance"}`` when Thomson's harmonic F-test (:func:`harmonic_line`)
+    finds a line significant at ``alpha`` at the fitted disturbance's period (the
+    p-value corrected for the whole scan, :meth:`.harmonic.LineTest.p_at`), else empty. The
+    disturbance then needs only to improve the validation NRMSE at all, like a dead time
+    (:func:`.evidence.passes`): the NRMSE gate stands in for a calibrated test where the
+    likelihood ratio's reference distribution is in doubt, and the harmonic F-test is one
+    for a line, calibrated under any smooth noise spectrum (Thomson 1982)."""
+    ft = fits.get("oscillatory_disturbance")
+    if line is None or ft is None or not line.p_at(ft.params.get("period")) < alpha:
+        return frozenset()
+    return frozenset({"oscillatory_disturbance"})
 
 
 #: the second look's slow-load high-pass as a fraction of the main band's
@@ -693,7 +729,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              linear_input_gate: bool = True, test_highpass_order: int = 2,
              detectability: bool = True, n_blocks: int = N_BLOCKS,
              block_layout: str = "interleaved", noise_family: str = "ar",
-             test_noise_family: str | None = None) -> Diagnosis:
+             test_noise_family: str | None = None, line_test: bool = False) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -766,6 +802,12 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         ``noise_family``): ``test_noise_family="arma"`` keeps AR models in the fits and an
         ARMA family in the tests (``reports/concealed/arma_stages.md``,
         ``reports/concealed/arma_tests.md``).
+    line_test : bool
+        Against a given model, test the nominal residual for a line by Thomson's harmonic
+        F-test (:func:`harmonic_line`; ``tests.harmonic_line``): a significant line seeds
+        the oscillatory disturbance's fit with its period and, where the fit lands on it,
+        replaces that hypothesis's NRMSE gate by "improves at all" (:func:`line_waiver`).
+        Off by default (``reports/concealed/harmonic_line.md`` measures it).
 
     Returns
     -------
@@ -789,7 +831,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
                   op_range=op_range, n_blocks=n_blocks, block_layout=block_layout,
                   noise_family=noise_family, test_noise_family=test_noise_family)
     loc = locate(cmp)
-    names = hypothesise(cmp, loc, hypotheses)
+    line = harmonic_line(cmp) if line_test else None
+    names = hypothesise(cmp, loc, hypotheses, line=line, alpha=alpha)
     fits, ham = fit(cmp, names, alpha=alpha, linear_input_gate=linear_input_gate)
     if slip_jump_bootstrap:
         _bootstrap_slip_jump(cmp, ham, slip_jump_bootstrap, bootstrap_seed)
@@ -798,7 +841,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     # validation samples (evidence.scaled_gate: slow loops sampled fast)
     gate = scaled_gate(min_improvement, dof) if cmp.ctx.model_given else min_improvement
     verdict = validate(cmp, fits, ham, alpha=alpha, min_improvement=gate,
-                       highpass_order=test_highpass_order)
+                       highpass_order=test_highpass_order, line=line)
     detectable = None
     if detectability and cmp.ctx.model_given:
         # what the tests just run would have seen on this record (.detectability)
@@ -839,6 +882,14 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     d.details["noise_family"] = cmp.noise_family
     d.details["test_noise_family"] = cmp.test_noise_family
     d.details["nrmse_gate"] = gate
+    d.details["line_test"] = bool(line_test and cmp.ctx.model_given)
+    if line is not None:
+        fitted = fits.get("oscillatory_disturbance")
+        period = None if fitted is None else fitted.params.get("period")
+        d.tests["harmonic_line"] = {**line.to_dict(), "alpha": alpha,
+                                    "fitted_period_s": period,
+                                    "p_at_fitted_period": line.p_at(period),
+                                    "gate_waived": bool(line_waiver(line, fits, alpha))}
     if detectable is not None:
         d.details["minimum_detectable"] = detectable
     if (why := record_warning(dof)) is not None:
