@@ -3,6 +3,8 @@ plumbing that need a recording and its (right) nominal model, not a closed loop.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from scipy.signal import lfilter
 
@@ -26,3 +28,14 @@ def fopdt_record(seed: int = 3, n: int = 1500,
     pv += rng.normal(0, 0.05, n)
     model = NominalModel(gain=2.0, time_constant=10.0, dead_time=3.0, source="given")
     return Recording.from_arrays(t, pv, op, warn=False), model
+
+
+def write_files(rec: Recording, folder: Path) -> tuple[Path, Path]:
+    """``rec`` as ``folder/r.csv`` and the model of :func:`fopdt_record` as
+    ``folder/m.yaml``, for tests of the command line."""
+    from stictionbench.io import write_recording
+
+    csv, model = folder / "r.csv", folder / "m.yaml"
+    write_recording(rec, csv)
+    model.write_text("process: {gain: 2.0, time_constant: 10.0, dead_time: 3.0}\n")
+    return csv, model

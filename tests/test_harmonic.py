@@ -66,3 +66,65 @@ def test_p_at_a_chosen_period_carries_the_scan_correction():
     # a frequency far from the line: no evidence there, and the correction applies
     assert lt.p_at(13.0) > 0.05
     assert lt.p_at(None) == 1.0 and lt.p_at(5000.0) == 1.0
+
+
+def _with_line(amplitude: float):
+    from fopdt_record import fopdt_record
+
+    from stictionbench.recording import Recording
+
+    rec, model = fopdt_record(load=0.02)
+    pv = np.asarray(rec.PV) + amplitude * np.sin(2 * np.pi * np.asarray(rec.t) / 45.0)
+    return Recording.from_arrays(np.asarray(rec.t), pv, np.asarray(rec.OP), warn=False), model
+
+
+def test_diagnose_reports_the_line_and_waives_the_gate_only_on_it():
+    from stictionbench.diagnosis import diagnose
+
+    rec, model = _with_line(0.08)
+    d = diagnose(rec, model, line_test=True, detectability=False)
+    h = d.tests["harmonic_line"]
+    assert abs(h["period_s"] - 45.0) < 2.0 and h["p_value"] < 0.05
+    assert h["gate_waived"] == (h["p_at_fitted_period"] < 0.05)
+    assert d.details["line_test"] is True
+    off = diagnose(rec, model, detectability=False)
+    assert "harmonic_line" not in off.tests and off.details["line_test"] is False
+    # without a model there is no trusted residual to scan
+    free = diagnose(rec, None, line_test=True, detectability=False)
+    assert "harmonic_line" not in free.tests and free.details["line_test"] is False
+
+
+def test_line_waiver_needs_the_fitted_period_on_a_significant_line():
+    from types import SimpleNamespace
+
+    from stictionbench.diagnosis.diagnose import line_waiver
+
+    rng = np.random.default_rng(7)
+    x = _red(3000, rng) + 0.6 * np.sin(2 * np.pi * np.arange(3000) / 40.0)
+    lt = line_test(x, 1.0, 1 / 600, 1 / 8)
+    fits = {"oscillatory_disturbance": SimpleNamespace(params={"period": 40.0})}
+    assert line_waiver(lt, fits, 0.05) == {"oscillatory_disturbance"}
+    fits_off = {"oscillatory_disturbance": SimpleNamespace(params={"period": 13.0})}
+    assert line_waiver(lt, fits_off, 0.05) == frozenset()
+    assert line_waiver(None, fits, 0.05) == frozenset()
+    assert line_waiver(lt, {}, 0.05) == frozenset()
+
+
+def test_the_command_takes_the_line_test_and_refuses_it_without_a_model(tmp_path, capsys):
+    import json
+
+    from fopdt_record import write_files
+
+    from stictionbench.cli import main
+
+    csv, model = write_files(_with_line(0.08)[0], tmp_path)
+    out = tmp_path / "d.json"
+    assert main(["diagnose", str(csv), "--model", str(model), "--json", str(out),
+                 "--line-test"]) == 0
+    payload = json.loads(out.read_text())
+    assert payload["tests"]["harmonic_line"]["method"] == "thomson_harmonic_f"
+    capsys.readouterr()
+    bad = tmp_path / "bad.json"
+    assert main(["diagnose", str(csv), "--json", str(bad), "--line-test"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--line-test" in err[0] and not bad.exists()

@@ -132,14 +132,11 @@ def test_the_tests_family_defaults_to_the_fits_and_is_checked():
 def test_the_command_takes_the_tests_family(tmp_path, capsys):
     import json
 
-    from stictionbench.cli import main
-    from stictionbench.io import write_recording
+    from fopdt_record import write_files
 
-    rec, _ = fopdt_record(load=0.02)
-    csv = tmp_path / "r.csv"
-    write_recording(rec, csv)
-    model = tmp_path / "m.yaml"
-    model.write_text("process: {gain: 2.0, time_constant: 10.0, dead_time: 3.0}\n")
+    from stictionbench.cli import main
+
+    csv, model = write_files(fopdt_record(load=0.02)[0], tmp_path)
     out = tmp_path / "d.json"
     assert main(["diagnose", str(csv), "--model", str(model), "--json", str(out),
                  "--test-noise-family", "arma"]) == 0

@@ -38,6 +38,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.test_highpass_order != 2 and model is None:
         raise InputError("--test-highpass-order needs --model: without one the "
                          "comparison keeps its zero-phase band")
+    if args.line_test and model is None:
+        raise InputError("--line-test needs --model: it tests the residual of a given "
+                         "model for a line")
     if args.slip_jump_bootstrap < 0:
         raise InputError(f"--slip-jump-bootstrap: expected a number of null recordings "
                          f">= 0, got {args.slip_jump_bootstrap}")
@@ -45,7 +48,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                  bootstrap_seed=args.bootstrap_seed,
                  linear_input_gate=args.linear_input_gate is not False,
                  test_highpass_order=args.test_highpass_order,
-                 test_noise_family=args.test_noise_family)
+                 test_noise_family=args.test_noise_family, line_test=args.line_test)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
@@ -118,4 +121,10 @@ def add_command(sub) -> None:
                         "low order by BIC, the fits keeping AR models (whiter innovations; "
                         "the verdicts about unchanged on six fresh benchmark sets, "
                         "reports/concealed/arma_tests.md)")
+    p.add_argument("--line-test", action="store_true",
+                   help="with --model, scan the nominal residual for a line by Thomson's "
+                        "harmonic F-test (tests.harmonic_line): a significant line seeds "
+                        "the oscillatory disturbance's fit and, at the fitted period, "
+                        "replaces its 10%% NRMSE gate by any improvement (off by default; "
+                        "reports/concealed/harmonic_line.md)")
     p.set_defaults(func=cmd_diagnose)
