@@ -38,7 +38,7 @@ within 2 s (median on the fresh sets).
 
 Run: ``.venv/bin/python experiments/harmonic_line.py [--jobs 2] [--reuse]`` after
 ``make independent`` (the fresh sets are generated here); writes
-``reports/concealed/harmonic_line.{md,csv}`` (about 25 minutes on 2 cores).
+``reports/concealed/harmonic_line.{md,csv}`` (about 17 minutes on 2 cores).
 """
 
 from __future__ import annotations
