@@ -106,8 +106,8 @@ def report(w: pd.DataFrame) -> str:
         f"- Gate waived on {len(waived)} recordings: "
         + (", ".join(f"{k} {v}" for k, v in sorted(by_class.items())) or "none") + ".", "",
         to_markdown(level_scores(w, RULES, "line_test", "ar",
-                                 "right only under the line test / only shipped")
-                    .replace({"generator": {"both": "all four"}})), "",
+                                 "right only under the line test / only shipped",
+                                 pooled="all four")), "",
         "## The prediction", "", ("Held" if held else "Not held") + f": {text}.", "",
         "## Per class (the four families pooled)", "",
         to_markdown(per_class_rates(w, RULES)), "",

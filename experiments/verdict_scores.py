@@ -48,13 +48,14 @@ def level_score(g: pd.DataFrame, rule: str, level: int) -> float:
 
 
 def level_scores(w: pd.DataFrame, rules: tuple[str, ...], new: str, base: str,
-                 paired_label: str) -> pd.DataFrame:
-    """Per part, generator (and both pooled) and level: each rule's score of 16 and
+                 paired_label: str, pooled: str = "both") -> pd.DataFrame:
+    """Per part, generator (and the generators pooled) and level: each rule's score of 16 and
     healthy loops called physics, and McNemar's test of ``new`` against ``base`` on the
-    recordings right under one only (column ``paired_label``)."""
+    recordings right under one only (column ``paired_label``); the generators pooled
+    are labelled ``pooled``."""
     rows = []
     for (part, gen), g in [*w.groupby(["part", "generator"]),
-                           *[((p, "both"), g) for p, g in w.groupby("part")]]:
+                           *[((p, pooled), g) for p, g in w.groupby("part")]]:
         for lv in (1, 2):
             gl = g[g.level == lv]
             h = gl[gl["class"] == "none"]
