@@ -58,14 +58,11 @@ STICKY = ("stiction", "deadband")
 SP_STEP_EVERY = 250.0
 
 
-def run_one(tau: float, valve: str, S: float, seed: int, load: float = 2.0, *,
-            sp_step: float = 0.0, controller_rate: float = 0.2, given: bool = True,
-            noise: float = 0.1) -> dict:
-    """Simulate one loop (load rms ``load`` PV units) and diagnose it without a model
-    (and, when ``given``, with the true FOPDT). ``sp_step`` > 0 adds a set-point square
-    wave of that amplitude (PV units, a step every :data:`SP_STEP_EVERY` seconds);
-    ``controller_rate`` is the PI's execution period in seconds; ``noise`` the standard
-    deviation of the white PV measurement noise."""
+def simulate_loop(tau: float, S: float, seed: int, load: float = 2.0, *,
+                  sp_step: float = 0.0, controller_rate: float = 0.2,
+                  noise: float = 0.1) -> tuple[Recording, float, float]:
+    """One loop of :func:`run_one` (its arguments), with MV withheld: ``(recording, kc,
+    ti)``, the PI tuned by the λ rule with λ = max(θ, τ/2)."""
     lam = max(DEAD_TIME, 0.5 * tau)
     kc, ti = tau / (lam + DEAD_TIME), min(tau, 4 * (lam + DEAD_TIME))
     ov = [f"process.gain={1.0}", f"process.time_constant={tau}",
@@ -84,7 +81,19 @@ def run_one(tau: float, valve: str, S: float, seed: int, load: float = 2.0, *,
     # ideal valve (MV = OP) instead, or the Kano valve
     ov += ["valve=kano", f"valve.S={S}", f"valve.J={0.5 * S}"] if S > 0 else ["valve=linear"]
     rec = simulate("linear", duration=DURATION, seed=seed, sample_time=1.0, overrides=ov)
-    rec = Recording.from_arrays(rec.t, rec.PV, rec.OP, SP=rec.SP, warn=False)
+    return Recording.from_arrays(rec.t, rec.PV, rec.OP, SP=rec.SP, warn=False), kc, ti
+
+
+def run_one(tau: float, valve: str, S: float, seed: int, load: float = 2.0, *,
+            sp_step: float = 0.0, controller_rate: float = 0.2, given: bool = True,
+            noise: float = 0.1) -> dict:
+    """Simulate one loop (load rms ``load`` PV units) and diagnose it without a model
+    (and, when ``given``, with the true FOPDT). ``sp_step`` > 0 adds a set-point square
+    wave of that amplitude (PV units, a step every :data:`SP_STEP_EVERY` seconds);
+    ``controller_rate`` is the PI's execution period in seconds; ``noise`` the standard
+    deviation of the white PV measurement noise."""
+    rec, kc, ti = simulate_loop(tau, S, seed, load, sp_step=sp_step,
+                                controller_rate=controller_rate, noise=noise)
     t0 = time.perf_counter()
     free = diagnose(rec)
     seconds = time.perf_counter() - t0
