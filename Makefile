@@ -41,7 +41,8 @@ bench: venv
 
 # real plant recordings (needs ../shared/data): batch verdicts, oscillation benchmark,
 # model-free diagnosis of the ISDB stiction loops and the checks of its explanation (loop speed
-# against identification; set-point excitation and controller rate; the closed-loop cycle
+# against identification; set-point excitation and controller rate; the prediction-error
+# identification on the same loops; the closed-loop cycle
 # check on regulatory limit cycles; simulated; historian
 # compression), and the verdicts against the way a recording is written down (about 20 minutes)
 DATA ?= ../shared/data
@@ -54,6 +55,7 @@ real: venv
 	$(BIN)/stictionbench oscillation-benchmark $(DATA)/isdb-oscillation/benchmark.mat --out reports/real/oscillation
 	$(BIN)/python experiments/fast_loops.py
 	$(BIN)/python experiments/regulatory_bias.py
+	$(BIN)/python experiments/pem_identification.py
 	$(BIN)/python experiments/limit_cycles.py
 	$(BIN)/python experiments/isdb_priors.py --data $(DATA)/isdb
 	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb

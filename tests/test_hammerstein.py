@@ -207,3 +207,17 @@ def test_restart_from_the_dead_band_keeps_the_best_of_both_ends(monkeypatch):
     assert on.innovation_variance["valve"] <= off.innovation_variance["valve"] * (1 + 1e-12)
     assert on.stiction and on.J_interval[0] > 0.0
     assert on.S == pytest.approx(3.0, rel=0.3)
+
+
+def test_every_sample_rule_is_he_et_als_law():
+    # He et al.'s (2007) residual-force model on sampled data stops after every sample
+    # and slips after J more travel the same way or S back: the every-sample rule, so the
+    # identification's search covers the He type the issue names beside Kano's
+    from stictionbench.sim.valves import HeValve
+
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        op = np.clip(50.0 + np.cumsum(rng.normal(0.0, 0.5, 3000)), 5.0, 95.0)
+        for S, J in ((3.0, 1.0), (4.0, 1.5), (2.0, 2.0), (5.0, 0.5)):
+            np.testing.assert_allclose(stiction_valve(op, S, J, np.inf),
+                                       respond(HeValve(S=S, J=J), op), atol=1e-9)

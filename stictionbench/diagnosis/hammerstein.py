@@ -64,7 +64,10 @@ SLIP_JUMP_ASYMPTOTIC = "chi2_asymptotic"
 #: stop rules of the sampled stick-slip valve (see :func:`.openloop.stiction_valve`):
 #: stop only when OP reverses (Kano), or at every sample (a valve driven by a noisy
 #: controller output, whose OP reverses between two recorded samples), or on reversals
-#: with Choudhury et al.'s (2005) restart: after a reversal ``S`` either way, not ``J``
+#: with Choudhury et al.'s (2005) restart: after a reversal ``S`` either way, not ``J``.
+#: The every-sample rule is also He et al.'s (2007) residual-force law on sampled data
+#: (:class:`stictionbench.sim.valves.HeValve` gives the same positions to rounding,
+#: ``tests/test_hammerstein.py``): the search covers the Kano and He types
 STOP_RULES = ("reversal", "every_sample", "choudhury")
 CHOUDHURY = STOP_RULES.index("choudhury")
 #: Choudhury's restart is searched with ``J ≥ CHOUDHURY_MIN_SLIP·S`` only: at ``J = 0`` the
