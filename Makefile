@@ -142,6 +142,13 @@ independent: venv
 		$(BIN)/python experiments/independent_set.py --data $(BLIND)/set_$$set \
 			--name independent_set_$$set --jobs 2 || exit $$?; \
 	done
+	for s in x:30000 y:34000; do \
+		set=$${s%%:*}; seed=$${s##*:}; rm -rf $(BLIND)/set_$$set; \
+		$(BIN)/python experiments/blind_generator_d/generate.py --out $(BLIND)/set_$$set \
+			--per-class 12 --first-seed $$seed > /dev/null || exit $$?; \
+		$(BIN)/python experiments/independent_set.py --data $(BLIND)/set_$$set \
+			--name independent_set_$$set --jobs 2 || exit $$?; \
+	done
 	$(BIN)/python experiments/decision_rules.py
 	$(BIN)/python experiments/line_confinement.py --jobs 2
 	$(BIN)/python experiments/setpoint_gain.py --jobs 2

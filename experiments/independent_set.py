@@ -10,9 +10,11 @@ sight of the package: ``experiments/blind_generator/generate.py`` (sets A and B)
 agent that was given the issue's description of the independent set, the paper and the
 valve-model notes, and was not allowed to read this repository (the second not the first
 generator either); set C was kept sealed until the code it scored was final, and scored
-once. Their output is scored exactly as a user runs the command (CSV and model YAML read
-by the command's own readers, :func:`stictionbench.diagnosis.diagnose` with the model,
-the package's defaults). Nothing is tuned here.
+once. ``experiments/blind_generator_d/generate.py`` (sets X and Y, 2026-12-03) was written
+the same way by a third agent, and its two sets were scored once, after a prediction was
+committed (its README). Their output is scored exactly as a user runs the command (CSV
+and model YAML read by the command's own readers, :func:`stictionbench.diagnosis.diagnose`
+with the model, the package's defaults). Nothing is tuned here.
 
 Any directory with a ``truth.csv`` (columns ``name``, ``level``, ``class``, ``seed``)
 and, per row, ``NAME.csv`` and ``NAME.model.yaml`` can be scored the same way.
@@ -48,17 +50,20 @@ from stictionbench.rates import balanced_text, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
-#: per class, the truth columns (of ``experiments/blind_generator``'s and
-#: ``experiments/blind_generator_c``'s ``truth.csv``) that measure the effect's size, the
+#: per class, the truth columns (of ``experiments/blind_generator``'s,
+#: ``experiments/blind_generator_c``'s and ``experiments/blind_generator_d``'s
+#: ``truth.csv``) that measure the effect's size, the
 #: first present is used; a ratio (true over nominal) is read as ``|ln|``; a class whose
 #: columns a set lacks is left out of the detectability table
-EFFECT = {"stiction": ("S", "stiction_S"), "deadband": ("deadband",),
-          "sensor_lag": ("lag_over_tau", "sensor_lag_rel_tcl"),
-          "dead_time": ("dead_time_ratio", "dead_time_true_over_model"),
-          "valve_characteristic": ("char_max_dev", "valve_gain_ratio"),
-          "saturation": ("saturation_fraction_of_time", "sat_frac_at_limit"),
-          "oscillatory_disturbance": ("disturbance_amplitude_frac",)}
-RATIOS = ("dead_time_ratio", "dead_time_true_over_model", "valve_gain_ratio")
+EFFECT = {"stiction": ("S", "stiction_S", "S_eq"), "deadband": ("deadband",),
+          "sensor_lag": ("lag_over_tau", "sensor_lag_rel_tcl", "sensor_tau_ratio"),
+          "dead_time": ("dead_time_ratio", "dead_time_true_over_model", "theta_factor"),
+          "valve_characteristic": ("char_max_dev", "valve_gain_ratio",
+                                   "valve_local_gain_ratio"),
+          "saturation": ("saturation_fraction_of_time", "sat_frac_at_limit", "sat_fraction"),
+          "oscillatory_disturbance": ("disturbance_amplitude_frac", "osc_amp_over_noise")}
+RATIOS = ("dead_time_ratio", "dead_time_true_over_model", "valve_gain_ratio", "theta_factor",
+          "valve_local_gain_ratio")
 
 
 def diagnose_one(data: str, name: str, test_highpass_order: int = 2) -> dict:
