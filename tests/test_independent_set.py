@@ -44,3 +44,23 @@ def test_generator_is_reproducible_and_scored_as_the_command_does(tmp_path):
     assert df.loc[df["class"] == "none", "miss_reason"].eq("").all()
     md = ind.report(df, str(tmp_path / "a"), 1.0)
     assert "| 1 | none | 1/1 = 100 % [21, 100] | 0/1" in md
+
+
+def test_third_generator_is_reproducible_and_read_by_the_commands_readers(tmp_path):
+    from stictionbench.diagnosis import load_model
+    from stictionbench.io import read_recording
+
+    gen = ROOT / "experiments" / "blind_generator_d" / "generate.py"
+    for sub in ("a", "b"):
+        subprocess.run([sys.executable, str(gen), "--out", str(tmp_path / sub),
+                        "--per-class", "1", "--first-seed", "30000"], check=True,
+                       capture_output=True)
+    truth = pd.read_csv(tmp_path / "a" / "truth.csv")
+    assert len(truth) == 16 and set(truth["class"]) == set(ind.CLASSES)
+    for name in truth["name"]:
+        a = (tmp_path / "a" / f"{name}.csv").read_bytes()
+        assert a == (tmp_path / "b" / f"{name}.csv").read_bytes()
+        rec = read_recording(tmp_path / "a" / f"{name}.csv", warn=False)
+        assert len(rec) == 3001 and rec.Ts == 1.0
+        model = load_model(tmp_path / "a" / f"{name}.model.yaml")
+        assert model.gain > 0 and model.kc > 0
