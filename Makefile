@@ -91,6 +91,7 @@ concealed: venv
 	$(BIN)/python experiments/lr_calibration.py
 	$(BIN)/python experiments/controller_rate_artefact.py
 	$(BIN)/python experiments/stiction_controller_rate.py
+	$(BIN)/python experiments/fast_pi_healthy.py --jobs 2
 	$(BIN)/python experiments/verdict_stability.py --trim 7 --jobs 2
 	$(MAKE) independent
 

@@ -718,7 +718,45 @@ def own_resolution(rec: Recording, model_given: bool) -> frozenset[str]:
 #: ``details`` keys of the warnings a user should see beside the verdict (the command
 #: prints them on stderr, the report lists them): regulatory data without a model, a
 #: nominal model that does not explain PV, a record too short for the loop's speed
-WARNING_KEYS = ("warning", "model_warning", "record_warning", "limit_warning")
+WARNING_KEYS = ("warning", "model_warning", "record_warning", "limit_warning",
+                "controller_rate_warning")
+
+#: a PI executing this many times per recorded sample or more gets the controller-rate
+#: warning (:func:`controller_rate_warning`)
+FAST_PI_RATIO = 1.5
+
+
+def controller_rate_warning(model: NominalModel, Ts: float) -> str | None:
+    """The warning for a PI that executes faster than the recording is sampled (the
+    model's ``controller.sample_time``, when the user gives it), else ``None``.
+
+    Why: the recorded OP is one of several controller outputs per sample, and the valve
+    hypotheses, replayed from it, fit the moves between samples the record does not hold.
+    On healthy simulated loops recorded at 1 s with the exact model given, a valve or
+    other physics was named in 50–92 % with the PI every 0.1 or 0.25 s and in 8 % with it
+    at 1 s, 17–33 % with it every 0.5 s (τ = 4–32 s;
+    ``reports/concealed/fast_pi_healthy.md``); on generator A's
+    healthy loops the PI at 1 s instead of faster took the false alarms from 14 to 3 of
+    120 (``reports/concealed/healthy_false_alarms.md``). The diagnosis does not correct
+    for it; the remedy is OP recorded at the controller's rate.
+
+    Examples
+    --------
+    >>> controller_rate_warning(NominalModel(1.0, 10.0, 1.0, 1.0, 10.0, 1.0), 1.0) is None
+    True
+    >>> m = NominalModel(1.0, 10.0, 1.0, 1.0, 10.0, 1.0, controller_period=0.25)
+    >>> controller_rate_warning(m, 1.0)[:40]
+    'the PI executes every 0.25 s, 4 times pe'
+    """
+    period = model.controller_period
+    if period is None or Ts / period < FAST_PI_RATIO:
+        return None
+    return (f"the PI executes every {period:g} s, {Ts / period:.3g} times per recorded "
+            f"sample of {Ts:g} s: the recorded OP misses its moves between samples, and on "
+            "healthy simulated loops so recorded a valve or other physics was named in "
+            "17–92 % of them, the more the faster the PI "
+            "(reports/concealed/fast_pi_healthy.md); a named valve here is unconfirmed "
+            "until OP is recorded at the controller's rate")
 
 
 def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float = ALPHA,
@@ -894,6 +932,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d.details["minimum_detectable"] = detectable
     if (why := record_warning(dof)) is not None:
         d.details["record_warning"] = why
+    if (why := controller_rate_warning(cmp.model, cmp.ctx.Ts)) is not None:
+        d.details["controller_rate_warning"] = why
     d.details["seconds"] = time.perf_counter() - t0
     return d
 

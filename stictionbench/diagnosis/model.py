@@ -42,6 +42,9 @@ class NominalModel:
     #: OP's 0 and 100 % in its own units (``op_range: [lo, hi]`` in the YAML); ``None``:
     #: recognised from the recording (:func:`.op_range.infer_op_range`)
     op_range: tuple[float, float] | None = None
+    #: the PI's execution period in seconds (``controller.sample_time`` in the YAML), when
+    #: the user knows it; ``None``: unknown (:func:`.diagnose.controller_rate_warning`)
+    controller_period: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -102,7 +105,7 @@ def load_model(path: str | Path) -> NominalModel:
         raise InputError(f"{p}: process.gain: must not be zero")
     tau = _num(str(p), "process.time_constant", proc["time_constant"], positive=True)
     theta = _num(str(p), "process.dead_time", proc["dead_time"], nonneg=True)
-    kc = ti = None
+    kc = ti = period = None
     ctrl = doc.get("controller")
     if ctrl is not None:
         if not isinstance(ctrl, dict):
@@ -110,12 +113,15 @@ def load_model(path: str | Path) -> NominalModel:
         for k in ("kc", "ti"):
             if k not in ctrl:
                 raise InputError(f"{p}: missing key 'controller.{k}'")
-        extra = set(ctrl) - {"kc", "ti"}
+        extra = set(ctrl) - {"kc", "ti", "sample_time"}
         if extra:
             raise InputError(f"{p}: unknown key(s) in controller: "
-                             f"{', '.join(sorted(map(str, extra)))} (kc, ti)")
+                             f"{', '.join(sorted(map(str, extra)))} (kc, ti, sample_time)")
         kc = _num(str(p), "controller.kc", ctrl["kc"])
         ti = _num(str(p), "controller.ti", ctrl["ti"], positive=True)
+        if "sample_time" in ctrl:
+            period = _num(str(p), "controller.sample_time", ctrl["sample_time"],
+                          positive=True)
     Ts = None
     if "sample_time" in doc:
         Ts = _num(str(p), "sample_time", doc["sample_time"], positive=True)
@@ -131,7 +137,7 @@ def load_model(path: str | Path) -> NominalModel:
     unknown = set(doc) - {"process", "controller", "sample_time", "op_range"}
     if unknown:
         raise InputError(f"{p}: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
-    return NominalModel(gain, tau, theta, kc, ti, Ts, "given", op_range)
+    return NominalModel(gain, tau, theta, kc, ti, Ts, "given", op_range, period)
 
 
 #: share of the OP moves a PI fit must explain to count as the loop's controller
