@@ -45,3 +45,16 @@ def test_verdicts_follow_the_counts():
     assert len(tab) == len(fp.TAUS) * len(fp.PI_PERIODS)
     row = tab[(tab["τ (s)"] == 4.0) & (tab["PI period (s)"] == 0.25)].iloc[0]
     assert row["called physics"].startswith("5/12") and row["named"] == "deadband ×5"
+
+
+def test_a_record_the_model_replays_exactly_does_not_break_the_diagnosis():
+    # no noise, no load, the PI at the historian's rate: the nominal replay is exact, and
+    # rounding made an effect's residual energy negative in the detectability scan (a math
+    # domain error, found by this experiment's part B)
+    from stictionbench.diagnosis import NominalModel, diagnose
+
+    rec = fp.loop(8.0, 1.0, 102, noise=0.0, load=0.0)
+    kc, ti = fp.simc(8.0)
+    d = diagnose(rec, NominalModel(fp.GAIN, 8.0, fp.DEAD_TIME, kc, ti, 1.0))
+    assert d.fit["nominal"] < 1e-9
+    assert "minimum_detectable" in d.details

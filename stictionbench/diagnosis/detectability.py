@@ -186,7 +186,9 @@ def minimum_detectable(ctx: Context, band, f_hp: float | None, f_lp: float | Non
     def unexplained(k: str, d: np.ndarray) -> float:
         """Mean square of the view ``k`` of ``d`` left by its best nominal alignment."""
         a = views[k](d)
-        return (float(a @ a) - max(float(a @ b) ** 2 for b in nuisance[k])) / a.size
+        # a residual energy: never below 0, which rounding reaches when d lies in the
+        # nuisance's span (a noise-free record replayed exactly: a math domain error before)
+        return max(0.0, float(a @ a) - max(float(a @ b) ** 2 for b in nuisance[k])) / a.size
 
     def failing(key: str, name: str, s: float) -> list[str]:
         """The conditions an effect of size ``s`` fails (empty: detectable)."""
