@@ -25,7 +25,15 @@ scaled, or the PI's period set):
   the process never received taken out, as a diagnosis knowing the noise could;
 - ``kick_out_pv_estimate``: the same with ``n_k`` estimated from the recorded PV (its
   part above five process corner frequencies), and the PI's period still known: the
-  best a correction from the recording could do.
+  best a correction from the recording could do;
+- ``quiet_pv+no_load`` and ``quiet_pv+no_load+pi_1s`` (added 2026-12-03): a tenth of the
+  noise and no load, with the loop's own PI period and with the PI at 1 s. Why:
+  ``fast_pi_healthy.md`` found the package's own tight loops called sticky with neither
+  noise nor load when the PI ran faster than the historian, a deterministic error of the
+  snapshot's replay, not the snapshot's answers to PV noise. **Prediction, written
+  before these two ran**: ``quiet_pv+no_load`` keeps at least 8 of the 120 loops called
+  physics, at least three quarters of them with the PI faster than 1 s, and
+  ``quiet_pv+no_load+pi_1s`` at most 3.
 
 Generator A's healthy loops have an exact nominal model (the YAML holds the simulated
 process and PI), so a verdict other than ``none`` is a false alarm whatever its cause;
@@ -66,7 +74,7 @@ DATA = ROOT / ".cache" / "blindgen"
 OUT = ROOT / "reports" / "concealed"
 VARIANTS = ("as_recorded", "no_load", "load_x0.3", "quiet_pv", "pi_1s", "op_average",
             "kick_out_true_noise", "kick_out_pv_estimate", "order0", "no_load+order0",
-            "pi_1s+order0")
+            "pi_1s+order0", "quiet_pv+no_load", "quiet_pv+no_load+pi_1s")
 
 
 def _load_generator(folder: str):
@@ -445,6 +453,28 @@ def _reading(h: pd.DataFrame) -> str:
     ])
 
 
+def _quiet_section(healthy: pd.DataFrame) -> list[str]:
+    """The two near-deterministic variants against their prediction (docstring)."""
+    got = set(healthy.variant)
+    if not {"quiet_pv+no_load", "quiet_pv+no_load+pi_1s"} <= got:
+        return []
+    q = healthy[healthy.variant == "quiet_pv+no_load"]
+    q1 = healthy[healthy.variant == "quiet_pv+no_load+pi_1s"]
+    fa, fa1 = q[q.predicted != "none"], q1[q1.predicted != "none"]
+    fast = int((fa.controller_period < 1.0).sum())
+    n_fast = int((q.controller_period < 1.0).sum())
+    held = len(fa) >= 8 and fast >= 0.75 * len(fa) and len(fa1) <= 3
+    named = ", ".join(f"{k} ×{v}" for k, v in fa.predicted.value_counts().items()) or "—"
+    return [
+        "## A tenth of the noise and no load", "",
+        f"- Loop's own PI period: {rate_text(len(fa), len(q))} called physics ({named}); "
+        f"{fast} of them with the PI faster than the historian, which {n_fast} of the "
+        f"{len(q)} loops have ({rate_text(fast, n_fast)} of those loops).",
+        f"- The same with the PI at 1 s: {rate_text(len(fa1), len(q1))}.",
+        f"- The prediction (docstring): **{'held' if held else 'failed'}**.", "",
+    ]
+
+
 def report(df: pd.DataFrame) -> str:
     df = df.assign(fa=df.predicted != "none")
     if "generator" not in df:
@@ -490,6 +520,7 @@ def report(df: pd.DataFrame) -> str:
         to_markdown(_snapshot_table(healthy[healthy.variant == "op_average"],
                                     set(fa_names))), "",
         _reading(healthy), "",
+        *_quiet_section(healthy),
         "## OP stored as its mean over each second, on every class", "",
         "The other classes' recordings of the same sets, re-made with the historian storing "
         "OP's mean over each second; the snapshot verdict is the set's own CSV diagnosed "
