@@ -48,7 +48,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                  bootstrap_seed=args.bootstrap_seed,
                  linear_input_gate=args.linear_input_gate is not False,
                  test_highpass_order=args.test_highpass_order,
-                 test_noise_family=args.test_noise_family, line_test=args.line_test)
+                 test_noise_family=args.test_noise_family, line_test=args.line_test,
+                 intersample=args.intersample)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
@@ -127,4 +128,10 @@ def add_command(sub) -> None:
                         "the oscillatory disturbance's fit and, at the fitted period, "
                         "replaces its 10%% NRMSE gate by any improvement (off by default; "
                         "reports/concealed/harmonic_line.md)")
+    p.add_argument("--intersample", action="store_true",
+                   help="with a model whose controller.sample_time is faster than the "
+                        "recording, replay the PI's mean output between samples, "
+                        "reconstructed from its law, in place of the recorded OP "
+                        "(details.intersample; off by default; "
+                        "reports/concealed/intersample_op.md)")
     p.set_defaults(func=cmd_diagnose)

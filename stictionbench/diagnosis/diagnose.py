@@ -726,6 +726,36 @@ WARNING_KEYS = ("warning", "model_warning", "record_warning", "limit_warning",
 FAST_PI_RATIO = 1.5
 
 
+def _compare_intersample(rec: Recording, model: NominalModel | None,
+                         kw: dict[str, Any]) -> tuple[Comparison, dict[str, Any] | None]:
+    """:func:`compare` on the recorded OP and, where the model's PI executes faster than
+    the recording (:data:`FAST_PI_RATIO`) and the set point is recorded, on the PI's mean
+    output between samples under each historian convention
+    (:func:`.intersample.effective_op`); the one whose nominal model fits the training
+    blocks best is kept (the same PV, band and blocks for all three, so their costs
+    compare). Returns the comparison and ``details["intersample"]`` (``None`` when
+    nothing was reconstructed)."""
+    from .intersample import CONVENTIONS, effective_op
+
+    cmp = compare(rec, model, **kw)
+    m = cmp.model
+    period = m.controller_period
+    if (period is None or rec.Ts / period < FAST_PI_RATIO or rec.SP is None
+            or m.kc is None or m.ti is None):
+        return cmp, None
+    costs = {"recorded": float(search_cost(cmp.nominal))}
+    best, pick = cmp, "recorded"
+    for conv in CONVENTIONS:
+        op = effective_op(np.asarray(rec.SP, float), np.asarray(rec.PV, float),
+                          np.asarray(rec.OP, float), rec.Ts, m.kc, m.ti, period, conv)
+        alt = compare(replace(rec, OP=op), model, **kw)
+        costs[conv] = float(search_cost(alt.nominal))
+        if costs[conv] < costs[pick]:
+            best, pick = alt, conv
+    return best, {"controller_period_s": float(period), "op": pick,
+                  "nominal_training_cost": costs}
+
+
 def controller_rate_warning(model: NominalModel, Ts: float) -> str | None:
     """The warning for a PI that executes faster than the recording is sampled (the
     model's ``controller.sample_time``, when the user gives it), else ``None``.
@@ -767,7 +797,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              linear_input_gate: bool = True, test_highpass_order: int = 2,
              detectability: bool = True, n_blocks: int = N_BLOCKS,
              block_layout: str = "interleaved", noise_family: str = "ar",
-             test_noise_family: str | None = None, line_test: bool = False) -> Diagnosis:
+             test_noise_family: str | None = None, line_test: bool = False,
+             intersample: bool = False) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -846,6 +877,13 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         the oscillatory disturbance's fit with its period and, where the fit lands on it,
         replaces that hypothesis's NRMSE gate by "improves at all" (:func:`line_waiver`).
         Off by default (``reports/concealed/harmonic_line.md`` measures it).
+    intersample : bool
+        With a model whose PI executes faster than the recording
+        (``controller.sample_time``, :func:`controller_rate_warning`), replay the PI's
+        mean output over each sample in place of the recorded OP
+        (:func:`.intersample.effective_op`), the historian's convention and the recorded
+        OP itself chosen by the nominal model's training fit (``details.intersample``);
+        off by default (``reports/concealed/intersample_op.md`` measures it).
 
     Returns
     -------
@@ -865,9 +903,11 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         from .slip_bootstrap import check_request
 
         check_request(rec, model, slip_jump_bootstrap, bootstrap_seed)
-    cmp = compare(rec, model, hp_factor=hp_factor, lp_factor=lp_factor, pem=pem,
-                  op_range=op_range, n_blocks=n_blocks, block_layout=block_layout,
-                  noise_family=noise_family, test_noise_family=test_noise_family)
+    kw = dict(hp_factor=hp_factor, lp_factor=lp_factor, pem=pem, op_range=op_range,
+              n_blocks=n_blocks, block_layout=block_layout, noise_family=noise_family,
+              test_noise_family=test_noise_family)
+    cmp, between = _compare_intersample(rec, model, kw) if intersample else \
+        (compare(rec, model, **kw), None)
     loc = locate(cmp)
     line = harmonic_line(cmp) if line_test else None
     names = hypothesise(cmp, loc, hypotheses, line=line, alpha=alpha)
@@ -934,6 +974,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d.details["record_warning"] = why
     if (why := controller_rate_warning(cmp.model, cmp.ctx.Ts)) is not None:
         d.details["controller_rate_warning"] = why
+    if between is not None:
+        d.details["intersample"] = between
     d.details["seconds"] = time.perf_counter() - t0
     return d
 
