@@ -129,7 +129,8 @@ concealed: venv
 # criterion on two more fresh sets (arma_tests), and Thomson's harmonic F-test for a line in
 # the nominal residual against a criterion fixed before its run on two more (harmonic_line),
 # with its scan's size and power varied on synthetic noise (harmonic_size) and the line test
-# on the package's four families (harmonic_families; about 370 minutes on 2 cores in all)
+# on the package's four families (harmonic_families), and the PI's outputs between samples
+# reconstructed (intersample_op; about 380 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -176,6 +177,7 @@ independent: venv
 	$(BIN)/python experiments/harmonic_line.py --jobs 2
 	$(BIN)/python experiments/harmonic_size.py --jobs 2
 	$(BIN)/python experiments/harmonic_families.py --jobs 2
+	$(BIN)/python experiments/intersample_op.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

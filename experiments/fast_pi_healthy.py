@@ -71,10 +71,11 @@ def simc(tau: float) -> tuple[float, float]:
 
 
 def loop(tau: float, period: float, seed: int, noise: float = NOISE,
-         load: float = LOAD) -> Recording:
-    """One healthy loop (ideal valve) under the PI executed every ``period`` seconds, the
-    historian at 1 s, PV noise and load of standard deviations ``noise`` and ``load``;
-    four set-point steps of ±:data:`STEP` at times drawn from ``seed``."""
+         load: float = LOAD, valve: tuple[str, ...] = ("valve=linear",)) -> Recording:
+    """One loop under the PI executed every ``period`` seconds, the historian at 1 s, PV
+    noise and load of standard deviations ``noise`` and ``load``; four set-point steps of
+    ±:data:`STEP` at times drawn from ``seed``; the valve's overrides ``valve`` (default
+    the ideal valve: a healthy loop)."""
     kc, ti = simc(tau)
     rng = np.random.default_rng(seed)
     times = np.sort(rng.choice(np.arange(200, 2800, 50), 4, replace=False))
@@ -84,7 +85,7 @@ def loop(tau: float, period: float, seed: int, noise: float = NOISE,
           f"controller.ti={ti:.6g}", f"controller.sample_time={period:g}", "sensor=noisy",
           "sensor.time_constant=0.0", f"sensor.noise_std={noise:g}", "disturbance=load",
           f"disturbance.load_std={load:g}", "disturbance.load_time_constant=300.0",
-          "setpoint=constant", f"setpoint.steps=[{steps}]", "valve=linear"]
+          "setpoint=constant", f"setpoint.steps=[{steps}]", *valve]
     r = simulate("linear", duration=DURATION, seed=seed, sample_time=1.0, overrides=ov)
     return Recording.from_arrays(r.t, r.PV, r.OP, SP=r.SP, warn=False)
 

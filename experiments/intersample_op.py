@@ -55,7 +55,6 @@ from stictionbench.io import read_recording, write_text  # noqa: E402
 from stictionbench.rates import mcnemar_p, rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
-from stictionbench.sim import simulate  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
 DATA = ROOT / ".cache" / "blindgen"
@@ -66,36 +65,19 @@ SEEDS = range(200, 212)
 STICKY = ("stiction", "deadband")
 
 
-def sticky_loop(tau: float, period: float, seed: int) -> Recording:
-    """:func:`fast_pi_healthy.loop` with a Kano valve S = 2 %, J = 1 %."""
-    kc, ti = fph.simc(tau)
-    healthy = fph.loop(tau, period, seed)  # for its set-point steps and settings
-    ov = [f"process.gain={fph.GAIN}", f"process.time_constant={tau}",
-          f"process.dead_time={fph.DEAD_TIME}", f"controller.kc={kc:.6g}",
-          f"controller.ti={ti:.6g}", f"controller.sample_time={period:g}", "sensor=noisy",
-          "sensor.time_constant=0.0", f"sensor.noise_std={fph.NOISE:g}", "disturbance=load",
-          f"disturbance.load_std={fph.LOAD:g}", "disturbance.load_time_constant=300.0",
-          "setpoint=constant", f"setpoint.steps={_steps(healthy)}", "valve=kano",
-          "valve.S=2.0", "valve.J=1.0"]
-    r = simulate("linear", duration=fph.DURATION, seed=seed, sample_time=1.0, overrides=ov)
-    return Recording.from_arrays(r.t, r.PV, r.OP, SP=r.SP, warn=False)
-
-
-def _steps(rec: Recording) -> str:
-    sp = rec.SP
-    idx = [i for i in range(1, len(sp)) if sp[i] != sp[i - 1]]
-    return "[" + ",".join(f"[{rec.t[i]:g},{sp[i] - sp[i - 1]:g}]" for i in idx) + "]"
+#: the Kano valve of part A's sticky loops
+KANO = ("valve=kano", "valve.S=2.0", "valve.J=1.0")
 
 
 def _both(rec: Recording, model: NominalModel) -> dict:
-    off = diagnose(rec, model)
+    off = diagnose(rec, model, intersample=False)
     on = diagnose(rec, model, intersample=True)
     inter = on.details.get("intersample") or {}
     return {"off": off.missing_physics, "on": on.missing_physics, "op": inter.get("op")}
 
 
 def job_a(tau: float, period: float, seed: int, valve: str) -> dict:
-    rec = fph.loop(tau, period, seed) if valve == "ideal" else sticky_loop(tau, period, seed)
+    rec = fph.loop(tau, period, seed, valve=("valve=linear",) if valve == "ideal" else KANO)
     kc, ti = fph.simc(tau)
     model = NominalModel(fph.GAIN, tau, fph.DEAD_TIME, kc, ti, 1.0, controller_period=period)
     return {"part": "A", "tau_s": tau, "pi_period_s": period, "seed": seed,

@@ -41,8 +41,14 @@ def test_warning_only_for_a_pi_faster_than_the_recording(rec):
     assert "controller_rate_warning" not in slow.details
     fast = diagnose(rec, replace(nom, controller_period=0.25))
     assert fast.details["controller_rate_warning"].startswith("the PI executes every 0.25 s")
-    # a warning, not a different verdict
-    assert fast.missing_physics == slow.missing_physics
+    # the outputs between samples are reconstructed by default, and the warning says so
+    assert "intersample" in fast.details
+    assert "reconstructed from the PI's law" in fast.details["controller_rate_warning"]
+    # without the reconstruction: a warning, not a different verdict
+    plain = diagnose(rec, replace(nom, controller_period=0.25), intersample=False)
+    assert "intersample" not in plain.details
+    assert "reconstructed" not in plain.details["controller_rate_warning"]
+    assert plain.missing_physics == slow.missing_physics
 
 
 def test_command_prints_the_warning_and_keeps_the_json(rec, tmp_path, capsys):

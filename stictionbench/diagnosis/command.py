@@ -128,10 +128,10 @@ def add_command(sub) -> None:
                         "the oscillatory disturbance's fit and, at the fitted period, "
                         "replaces its 10%% NRMSE gate by any improvement (off by default; "
                         "reports/concealed/harmonic_line.md)")
-    p.add_argument("--intersample", action="store_true",
+    p.add_argument("--intersample", action=argparse.BooleanOptionalAction, default=True,
                    help="with a model whose controller.sample_time is faster than the "
                         "recording, replay the PI's mean output between samples, "
                         "reconstructed from its law, in place of the recorded OP "
-                        "(details.intersample; off by default; "
-                        "reports/concealed/intersample_op.md)")
+                        "(details.intersample; on by default, --no-intersample replays "
+                        "the recorded OP; reports/concealed/intersample_op.md)")
     p.set_defaults(func=cmd_diagnose)

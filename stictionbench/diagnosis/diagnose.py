@@ -756,7 +756,8 @@ def _compare_intersample(rec: Recording, model: NominalModel | None,
                   "nominal_training_cost": costs}
 
 
-def controller_rate_warning(model: NominalModel, Ts: float) -> str | None:
+def controller_rate_warning(model: NominalModel, Ts: float, *,
+                            reconstructed: bool = False) -> str | None:
     """The warning for a PI that executes faster than the recording is sampled (the
     model's ``controller.sample_time``, when the user gives it), else ``None``.
 
@@ -767,8 +768,11 @@ def controller_rate_warning(model: NominalModel, Ts: float) -> str | None:
     at 1 s, 17–33 % with it every 0.5 s (τ = 4–32 s;
     ``reports/concealed/fast_pi_healthy.md``); on generator A's
     healthy loops the PI at 1 s instead of faster took the false alarms from 14 to 3 of
-    120 (``reports/concealed/healthy_false_alarms.md``). The diagnosis does not correct
-    for it; the remedy is OP recorded at the controller's rate.
+    120 (``reports/concealed/healthy_false_alarms.md``). With ``reconstructed`` (the
+    PI's outputs between samples replayed, :func:`_compare_intersample`) the warning says
+    so and what remains: on the package's loops 31 → 18 of 48 healthy loops called
+    physics under the PI at 0.25 s (``reports/concealed/intersample_op.md``). The remedy
+    is OP recorded at the controller's rate.
 
     Examples
     --------
@@ -781,10 +785,15 @@ def controller_rate_warning(model: NominalModel, Ts: float) -> str | None:
     period = model.controller_period
     if period is None or Ts / period < FAST_PI_RATIO:
         return None
-    return (f"the PI executes every {period:g} s, {Ts / period:.3g} times per recorded "
-            f"sample of {Ts:g} s: the recorded OP misses its moves between samples, and on "
-            "healthy simulated loops so recorded a valve or other physics was named in "
-            "17–92 % of them, the more the faster the PI "
+    head = (f"the PI executes every {period:g} s, {Ts / period:.3g} times per recorded "
+            f"sample of {Ts:g} s: the recorded OP misses its moves between samples")
+    if reconstructed:
+        return (head + "; they were reconstructed from the PI's law (details.intersample), "
+                "which on healthy simulated tight loops so recorded left physics named on "
+                "18 of 48 instead of 31 (reports/concealed/intersample_op.md): a named valve "
+                "here is unconfirmed until OP is recorded at the controller's rate")
+    return (head + ", and on healthy simulated loops so recorded a valve or other physics "
+            "was named in 17–92 % of them, the more the faster the PI "
             "(reports/concealed/fast_pi_healthy.md); a named valve here is unconfirmed "
             "until OP is recorded at the controller's rate")
 
@@ -798,7 +807,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              detectability: bool = True, n_blocks: int = N_BLOCKS,
              block_layout: str = "interleaved", noise_family: str = "ar",
              test_noise_family: str | None = None, line_test: bool = False,
-             intersample: bool = False) -> Diagnosis:
+             intersample: bool = True) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -882,8 +891,10 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         (``controller.sample_time``, :func:`controller_rate_warning`), replay the PI's
         mean output over each sample in place of the recorded OP
         (:func:`.intersample.effective_op`), the historian's convention and the recorded
-        OP itself chosen by the nominal model's training fit (``details.intersample``);
-        off by default (``reports/concealed/intersample_op.md`` measures it).
+        OP itself chosen by the nominal model's training fit (``details.intersample``).
+        On by default since ``reports/concealed/intersample_op.md`` met its criterion,
+        fixed before its run; it changes nothing for a model without
+        ``controller.sample_time``. ``False`` replays the recorded OP as before.
 
     Returns
     -------
@@ -972,7 +983,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d.details["minimum_detectable"] = detectable
     if (why := record_warning(dof)) is not None:
         d.details["record_warning"] = why
-    if (why := controller_rate_warning(cmp.model, cmp.ctx.Ts)) is not None:
+    if (why := controller_rate_warning(cmp.model, cmp.ctx.Ts,
+                                       reconstructed=between is not None)) is not None:
         d.details["controller_rate_warning"] = why
     if between is not None:
         d.details["intersample"] = between
