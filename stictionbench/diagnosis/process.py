@@ -17,13 +17,14 @@ Dynamics and Control* (FOPDT).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from scipy.optimize import minimize
 
 from ..recording import Recording
 from .model import NominalModel, identify_pi
-from .noise import fit_noise_model
+from .noise import NoiseModel, fit_noise_model
 from .openloop import fopdt_response, highpass
 
 #: criteria of :func:`fit_fopdt`: the output error, and the direct prediction-error method
@@ -104,7 +105,8 @@ PEM_ALTERNATIONS = 2
 
 
 def _pem_cost(u: np.ndarray, pv: np.ndarray, Ts: float, tau: float, theta: float,
-              burn_max: int) -> tuple[float, float]:
+              burn_max: int, noise_fit: Callable[[np.ndarray], NoiseModel] = fit_noise_model
+              ) -> tuple[float, float]:
     """``(ln V, K)``: the innovation variance ``V`` of the direct prediction-error FOPDT
     at ``(τ, θ)`` with its gain and noise model estimated (see :func:`fit_fopdt_pem`)."""
     g = fopdt_response(u, Ts, tau, theta)
@@ -117,7 +119,7 @@ def _pem_cost(u: np.ndarray, pv: np.ndarray, Ts: float, tau: float, theta: float
     K = float(np.dot(g, y) / gg)
     v = math.inf
     for _ in range(PEM_ALTERNATIONS):
-        h = fit_noise_model(y - K * g)
+        h = noise_fit(y - K * g)
         skip = h.inverse().size
         fy, fg = h.whiten(y)[skip:], h.whiten(g)[skip:]
         ff = float(np.dot(fg, fg))
@@ -129,14 +131,18 @@ def _pem_cost(u: np.ndarray, pv: np.ndarray, Ts: float, tau: float, theta: float
     return (math.log(v) if v > 0 else -math.inf), K
 
 
-def fit_fopdt_pem(u: np.ndarray, pv: np.ndarray, Ts: float) -> tuple[float, float, float]:
+def fit_fopdt_pem(u: np.ndarray, pv: np.ndarray, Ts: float,
+                  noise_fit: Callable[[np.ndarray], NoiseModel] = fit_noise_model
+                  ) -> tuple[float, float, float]:
     """Direct prediction-error FOPDT fit ``u → pv`` with a noise model:
     ``pv = K·G(q; τ, θ)u + H(q)e``, ``H⁻¹ = A(q)(1 − q⁻¹)^d`` chosen by BIC
     (:func:`.noise.fit_noise_model`: AR or integrated AR, a drifting load). For every
     ``(τ, θ)`` the gain and ``H`` are estimated by alternating least squares (the gain on
     the whitened signals, ``H`` on the output error, :data:`PEM_ALTERNATIONS` times), and
     ``(τ, θ)`` minimise the innovation variance (the grid and Nelder–Mead of
-    :func:`fit_fopdt`). Returns ``(K, τ, θ)``.
+    :func:`fit_fopdt`). ``noise_fit`` fits ``H`` to an output error (default the
+    package's AR / integrated-AR choice by BIC; a fixed structure restricts it). Returns
+    ``(K, τ, θ)``.
 
     Open loop, with a drifting load, it fits better than the output error
     (``tests/test_process_identification.py``). In closed loop it is consistent only on
@@ -160,9 +166,10 @@ def fit_fopdt_pem(u: np.ndarray, pv: np.ndarray, Ts: float) -> tuple[float, floa
     # the one-step criterion is sharper in θ than the grid's spacing: the search also
     # starts from the output-error fit
     _, tau_oe, theta_oe = fit_fopdt(u, pv, Ts)
-    tau, theta = _grid_and_refine(lambda a, b: _pem_cost(u, pv, Ts, a, b, n // 5)[0], n, Ts,
+    tau, theta = _grid_and_refine(lambda a, b: _pem_cost(u, pv, Ts, a, b, n // 5,
+                                                         noise_fit)[0], n, Ts,
                                   starts=((tau_oe, theta_oe),))
-    _, K = _pem_cost(u, pv, Ts, tau, theta, n // 5)
+    _, K = _pem_cost(u, pv, Ts, tau, theta, n // 5, noise_fit)
     return K, tau, theta
 
 
