@@ -46,9 +46,9 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fast_loops import parse_args, run_loops  # noqa: E402
+from fresh_recordings import publish  # noqa: E402
 
 from stictionbench.diagnosis import NominalModel, diagnose  # noqa: E402
-from stictionbench.io import write_text  # noqa: E402
 from stictionbench.rates import mcnemar_p, rate_text, wilson  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 from stictionbench.reports.figures import new_figure, save_png  # noqa: E402
@@ -196,7 +196,6 @@ def main(argv=None) -> int:
     both = pd.DataFrame(run_loops(_job, jobs + jobs_b, a.jobs, "fast PI, healthy loops"))
     both = both.sort_values(["tau_s", "pi_period_s", "noise", "load", "seed"],
                             kind="stable").reset_index(drop=True)
-    write_text(out / "fast_pi_healthy.csv", both.to_csv(index=False, float_format="%.6g"))
     part_a = (both["noise"] == NOISE) & (both["load"] == LOAD)
     df = both[part_a].reset_index(drop=True)
     b = both[both["tau_s"].isin(TAUS_B) & both["pi_period_s"].isin(PI_PERIODS_B)]
@@ -226,8 +225,8 @@ def main(argv=None) -> int:
         to_markdown(summarise_b(b)),
         "",
     ]
-    write_text(out / "fast_pi_healthy.md", "\n".join(lines))
-    print(f"wrote {out / 'fast_pi_healthy.md'}")
+    publish(both, "\n".join(lines), out / "fast_pi_healthy", float_format="%.6g",
+            echo=False)
     return 0
 
 

@@ -231,14 +231,16 @@ def generator_module(folder: str):
     return mod
 
 
-def publish(df: pd.DataFrame, text: str, stem: Path) -> None:
-    """An experiment's outputs: ``stem.csv`` (the per-recording table) and ``stem.md``
-    (the report), each written atomically, and the report printed."""
+def publish(df: pd.DataFrame, text: str, stem: Path, *, float_format: str | None = None,
+            echo: bool = True) -> None:
+    """An experiment's outputs: ``stem.csv`` (the per-recording table, its floats written
+    with ``float_format`` when given) and ``stem.md`` (the report), each written
+    atomically; the report printed with ``echo``, else the report's path."""
     stem.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(stem.with_suffix(".csv")) as tmp:
-        df.to_csv(tmp, index=False)
+        df.to_csv(tmp, index=False, float_format=float_format)
     write_text(stem.with_suffix(".md"), text)
-    print(text)
+    print(text if echo else f"wrote {stem.with_suffix('.md')}")
 
 
 def rate_bars(ax, groups: Iterable[pd.DataFrame], hit: Callable[[pd.DataFrame, str], int],

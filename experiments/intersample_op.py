@@ -49,9 +49,10 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import fast_pi_healthy as fph  # noqa: E402
 from fast_loops import run_loops  # noqa: E402
+from fresh_recordings import publish  # noqa: E402
 
 from stictionbench.diagnosis import NominalModel, diagnose, load_model  # noqa: E402
-from stictionbench.io import read_recording, write_text  # noqa: E402
+from stictionbench.io import read_recording  # noqa: E402
 from stictionbench.rates import mcnemar_p, rate_text  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -178,7 +179,6 @@ def main(argv=None) -> int:
                          axis=1)
     df = df.sort_values(["part", "grp", "class", "seed", "name"], kind="stable",
                         na_position="last").reset_index(drop=True)
-    write_text(OUT / "intersample_op.csv", df.to_csv(index=False, float_format="%.6g"))
     tab, verdicts = summary(df)
     lines = [
         "# The PI's outputs between samples reconstructed",
@@ -197,8 +197,7 @@ def main(argv=None) -> int:
         *verdicts,
         "",
     ]
-    write_text(OUT / "intersample_op.md", "\n".join(lines))
-    print(f"wrote {OUT / 'intersample_op.md'}")
+    publish(df, "\n".join(lines), OUT / "intersample_op", float_format="%.6g", echo=False)
     return 0
 
 

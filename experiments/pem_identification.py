@@ -62,11 +62,11 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fast_loops import DEAD_TIME, parse_args, run_loops, simulate_loop  # noqa: E402
+from fresh_recordings import publish  # noqa: E402
 from regulatory_bias import BAD_SIGN, LOAD, NOISE, TAUS  # noqa: E402
 
 from stictionbench.diagnosis import process  # noqa: E402
 from stictionbench.diagnosis.noise import NoiseModel  # noqa: E402
-from stictionbench.io import write_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 #: set-point square-wave amplitude (PV units) of the excited conditions
@@ -166,7 +166,6 @@ def main(argv=None) -> int:
     df = pd.DataFrame(rows).sort_values(
         ["controller_period_s", "sp_step", "valve", "tau_samples", "seed", "estimator"],
         kind="stable").reset_index(drop=True)
-    write_text(out / "pem_identification.csv", df.to_csv(index=False, float_format="%.6g"))
     tab = summarise(df)
     lines = [
         "# The prediction-error method against the closed-loop bias of the model-free "
@@ -186,8 +185,8 @@ def main(argv=None) -> int:
         *verdicts(tab),
         "",
     ]
-    write_text(out / "pem_identification.md", "\n".join(lines))
-    print(f"wrote {out / 'pem_identification.md'}")
+    publish(df, "\n".join(lines), out / "pem_identification", float_format="%.6g",
+            echo=False)
     return 0
 
 
