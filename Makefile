@@ -106,7 +106,7 @@ concealed: venv
 # block (line_confinement), the gain test across families, the controller's rate varied on fresh healthy
 # loops of the first generator, and the hidden physics of every set put through the
 # diagnosis's own test (oracle_ceiling), the healthy loops re-made with one ingredient
-# changed at a time (healthy_false_alarms), and the opt-in linear-input gate against the
+# changed at a time (healthy_false_alarms; generator D's: healthy_false_alarms_d), and the opt-in linear-input gate against the
 # default on them, fresh sets J and K and a fresh holdout block (linear_input_gate), and
 # the likelihood tests' high-pass order varied on all of them and another fresh holdout
 # block (likelihood_highpass), and orders 2 and 0 compared at a matched false-alarm rate
@@ -158,6 +158,7 @@ independent: venv
 	$(BIN)/python experiments/oracle_ceiling.py --jobs 2
 	$(BIN)/python experiments/linear_input_gate.py --jobs 2
 	$(BIN)/python experiments/healthy_false_alarms.py --jobs 2
+	$(BIN)/python experiments/healthy_false_alarms_d.py --jobs 2
 	$(BIN)/python experiments/likelihood_highpass.py --jobs 2
 	rm -rf .cache/size_power
 	$(BIN)/python experiments/size_power.py --jobs 2

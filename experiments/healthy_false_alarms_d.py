@@ -25,8 +25,8 @@ executing faster than the historian's 1 s (the deterministic cause of
 ``reports/concealed/fast_pi_healthy.md`` part B). Reading the mean OP as a snapshot changes
 at most 2 verdicts. Nothing is adopted from this run: it says where to look.
 
-Run: ``.venv/bin/python experiments/healthy_ablation.py [--jobs 2]``; writes
-``reports/concealed/healthy_ablation.md`` and ``.csv``. It needs
+Run: ``.venv/bin/python experiments/healthy_false_alarms_d.py [--jobs 2]``; writes
+``reports/concealed/healthy_false_alarms_d.md`` and ``.csv``. It needs
 ``.cache/blindgen/set_x`` and ``set_y`` (``make independent`` draws them).
 """
 
@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import argparse
 import filecmp
-import importlib.util
 import sys
 import tempfile
 from pathlib import Path
@@ -47,7 +46,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fast_loops import run_loops  # noqa: E402
-from fresh_recordings import publish  # noqa: E402
+from fresh_recordings import generator_module, publish  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.io import read_recording  # noqa: E402
@@ -58,14 +57,6 @@ OUT = ROOT / "reports" / "concealed"
 DATA = ROOT / ".cache" / "blindgen"
 SETS = ("x", "y")
 VARIANTS = ("recorded", "no noise", "no load", "neither", "snapshot OP")
-
-
-def _generator():
-    spec = importlib.util.spec_from_file_location(
-        "blindgen_d", ROOT / "experiments" / "blind_generator_d" / "generate.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def _vary(sc: dict, variant: str) -> dict:
@@ -83,7 +74,7 @@ def _vary(sc: dict, variant: str) -> dict:
 
 def job(s: str, name: str, seed: int, level: int) -> list[dict]:
     """Every variant of one healthy recording, diagnosed with its model YAML."""
-    gen = _generator()
+    gen = generator_module("blind_generator_d")
     sc, *_ = gen.make_recording(seed, level, "none")
     src = DATA / f"set_{s}"
     model = load_model(src / f"{name}.model.yaml")
@@ -145,18 +136,47 @@ def summary(df: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
     return pd.DataFrame(rows), [f"- {t}: **{'held' if ok else 'failed'}**" for t, ok in checks]
 
 
+def reading(df: pd.DataFrame) -> list[str]:
+    """Added after the run (no prediction): the variants' false alarms by the PI's period,
+    and how large the nominal's error is on the loops called physics with neither noise
+    nor load (an exact model, so any error there is the replay's, not the plant's)."""
+    fast = df["controller_period"] < 1.0
+    called = df["predicted"] != "none"
+    by = (df.assign(pi=np.where(fast, "PI faster than 1 s", "PI at 1 s"), called=called)
+          .groupby(["variant", "pi"], sort=False)["called"]
+          .agg(lambda c: rate_text(int(c.sum()), len(c))).unstack("pi").reset_index())
+    clean = df[(df["variant"] == "neither") & called]
+    cols = ["name", "predicted", "nominal_nrmse", "improved_nrmse", "controller_period",
+            "hist_op_mode", "kc_K", "tau"]
+    big = clean[clean["nominal_nrmse"] >= 0.05]
+    quiet = df[(df["variant"] == "neither") & ~called]["nominal_nrmse"].median()
+    snap = int(((big["controller_period"] < 1.0) & (big["hist_op_mode"] == "snapshot")).sum())
+    return ["## Reading (added after the run, no prediction)", "",
+            "Called physics by the PI's period:", "", to_markdown(by), "",
+            f"With neither noise nor load the model is exact, so the nominal's validation "
+            f"NRMSE is the replay's own error. On the {len(clean)} loops still called "
+            f"physics its median is {clean['nominal_nrmse'].median():.2g} (the loops "
+            f"answered `none`: {quiet:.2g}); {len(big)} have an error of 5 % of PV's "
+            f"spread or more, {snap} of them the snapshot of a PI faster than the "
+            f"historian:", "",
+            to_markdown(clean.sort_values("nominal_nrmse")[cols].round(
+                {"controller_period": 3, "kc_K": 3, "tau": 4}).assign(
+                **{c: lambda d, c=c: d[c].map(lambda x: f"{x:.2g}")
+                   for c in ("nominal_nrmse", "improved_nrmse")})), ""]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jobs", type=int, default=2)
     a = ap.parse_args(argv)
     if a.jobs < 1:
-        print("healthy_ablation.py: --jobs must be ≥ 1", file=sys.stderr)
+        print("healthy_false_alarms_d.py: --jobs must be ≥ 1", file=sys.stderr)
         return 2
     jobs = []
     for s in SETS:
         truth = DATA / f"set_{s}" / "truth.csv"
         if not truth.exists():
-            print(f"healthy_ablation.py: {truth} missing (make independent draws it)",
+            print(f"healthy_false_alarms_d.py: {truth} missing (make independent draws it)",
                   file=sys.stderr)
             return 2
         t = pd.read_csv(truth)
@@ -169,13 +189,14 @@ def main(argv=None) -> int:
     df["variant"] = df["variant"].astype(str)
     tab, verdicts = summary(df)
     lines = ["# Generator D's healthy loops, each disturbance source removed in turn", "",
-             "Generated by `experiments/healthy_ablation.py` (the variants, the prediction and "
-             "its criteria, written before the run, are in its docstring). The 48 healthy "
+             "Generated by `experiments/healthy_false_alarms_d.py` (the variants, the "
+             "prediction and its criteria, written before the run, are in its docstring). "
+             "The 48 healthy "
              "recordings of sets X and Y re-simulated by the generator's own code, one thing "
              "changed at a time, each diagnosed with its model YAML. Wilson 95 % intervals; "
              "McNemar's exact test against the recorded variant.", "",
-             to_markdown(tab), "", "## The prediction", "", *verdicts, ""]
-    publish(df, "\n".join(lines), OUT / "healthy_ablation", float_format="%.6g")
+             to_markdown(tab), "", "## The prediction", "", *verdicts, "", *reading(df)]
+    publish(df, "\n".join(lines), OUT / "healthy_false_alarms_d", float_format="%.6g")
     return 0
 
 
