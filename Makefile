@@ -130,7 +130,8 @@ concealed: venv
 # the nominal residual against a criterion fixed before its run on two more (harmonic_line),
 # with its scan's size and power varied on synthetic noise (harmonic_size) and the line test
 # on the package's four families (harmonic_families), and the PI's outputs between samples
-# reconstructed (intersample_op; about 380 minutes on 2 cores in all)
+# reconstructed (intersample_op), and the PI's period searched where the model gives none
+# (unknown_pi_period; about 410 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -179,6 +180,7 @@ independent: venv
 	$(BIN)/python experiments/harmonic_size.py --jobs 2
 	$(BIN)/python experiments/harmonic_families.py --jobs 2
 	$(BIN)/python experiments/intersample_op.py --jobs 2
+	$(BIN)/python experiments/unknown_pi_period.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor
