@@ -36,10 +36,24 @@ generator's (the recorded OP for a PI at 1 s; 0.2 s matches 4 executions). **Pre
 written before part B ran**: as stored, the pick agrees on at most 15 of 48; with neither
 noise nor load on at least 24. If the second fails, the explanation is wrong.
 
-Run: ``.venv/bin/python experiments/unknown_pi_period.py [--jobs 2] [--quiet-check]``;
+Part C (``--leak-free``, added after part B held, 36 of 48 agreeing without noise and
+load, 11 as stored): if what misleads the search is the measured PV carried into the
+input, a reconstruction that takes PV's motion between samples from the model instead
+should not mislead it. The leak-free reconstruction: the same PI law
+(:func:`stictionbench.diagnosis.intersample.effective_op`), with the control error at each
+sample as recorded but PV's increments between samples those of the nominal model replayed
+from the input (from the recorded OP, then once more from that first reconstruction), so
+that neither the measurement noise nor the load's motion enters the replayed input except
+through the small integral term. **Prediction, written before part C ran**: on generator
+D's healthy loops as stored, the leak-free search's pick agrees with the PI's period on at
+least 24 of 48. Only if it does is the leak-free search scored on the sets (a later run,
+with its own criterion).
+
+Run: ``.venv/bin/python experiments/unknown_pi_period.py [--jobs 2] [--quiet-check |
+--leak-free]``;
 writes ``reports/concealed/unknown_pi_period.md`` and ``.csv`` (part B:
-``unknown_pi_period_quiet.md`` and ``.csv``). Needs ``.cache/blindgen`` (``make
-independent`` draws the sets).
+``unknown_pi_period_quiet``, part C: ``unknown_pi_period_leak_free``, each ``.md`` and
+``.csv``). Needs ``.cache/blindgen`` (``make independent`` draws the sets).
 """
 
 from __future__ import annotations
@@ -64,6 +78,7 @@ from fresh_recordings import generator_module, publish  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.intersample import CONVENTIONS, effective_op  # noqa: E402
+from stictionbench.diagnosis.openloop import fopdt_response  # noqa: E402
 from stictionbench.io import read_recording  # noqa: E402
 from stictionbench.rates import mcnemar_p, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -100,6 +115,53 @@ def _searched(rec, model, kw):
     return best, {"controller_period_s": None, "op": pick, "nominal_training_cost": costs}
 
 
+def leak_free_op(rec, model, period: float, convention: str) -> np.ndarray:
+    """The PI's mean output between samples with PV's increments taken from the nominal
+    model's replay of the input rather than from the measured PV (part C): the control
+    error at the samples is the recorded one, so only the proportional part's view of
+    PV between samples changes. Two passes: the replay of the recorded OP, then of the
+    first reconstruction. The replay is aligned on PV's increments on the nominal's own
+    grid (the model's dead time ± one sample in quarters), as the nominal is aligned."""
+    sp, pv, op = (np.asarray(x, float) for x in (rec.SP, rec.PV, rec.OP))
+    u = op
+    dpv = np.diff(pv)
+    for _ in range(2):
+        det, err = None, np.inf
+        for shift in np.arange(-1.0, 1.01, 0.25) * rec.Ts:
+            if model.dead_time + shift < 0:
+                continue
+            y = model.gain * fopdt_response(u, rec.Ts, model.time_constant,
+                                            model.dead_time + shift)
+            e = float(np.mean((dpv - np.diff(y)) ** 2))
+            if e < err:
+                det, err = y, e
+        # sp − det = SP − PV: effective_op sees the recorded error, the model's increments
+        u = effective_op(sp - pv + det, det, op, rec.Ts, model.kc, model.ti, period,
+                         convention)
+    return u
+
+
+def _searched_leak_free(rec, model, kw):
+    """:func:`_searched` with :func:`leak_free_op` in place of the measured-PV
+    reconstruction."""
+    cmp = _D.compare(rec, model, **kw)
+    m = cmp.model
+    if m.controller_period is not None or rec.SP is None or m.kc is None or m.ti is None:
+        return _SHIPPED(rec, model, kw)
+    costs = {"recorded": float(_D.search_cost(cmp.nominal))}
+    best, pick = cmp, "recorded"
+    for count in COUNTS:
+        for conv in CONVENTIONS:
+            alt = _D.compare(replace(rec, OP=leak_free_op(rec, m, rec.Ts / count, conv)),
+                             model, **kw)
+            key = f"{count}:{conv}"
+            costs[key] = float(_D.search_cost(alt.nominal))
+            if costs[key] < costs[pick]:
+                best, pick = alt, key
+    return best, {"controller_period_s": None, "op": pick, "nominal_training_cost": costs,
+                  "leak_free": True}
+
+
 def job(gen: str, s: str, name: str, cls: str, level: int, period: float) -> dict:
     d = DATA / f"set_{s}"
     rec = read_recording(str(d / f"{name}.csv"), warn=False)
@@ -118,8 +180,8 @@ def job(gen: str, s: str, name: str, cls: str, level: int, period: float) -> dic
     return out
 
 
-def _pick(rec, model) -> str:
-    _D._compare_intersample = _searched
+def _pick(rec, model, search=_searched) -> str:
+    _D._compare_intersample = search
     try:
         res = diagnose(rec, model)
     finally:
@@ -146,6 +208,56 @@ def job_quiet(s: str, name: str, seed: int, level: int) -> list[dict]:
     return rows
 
 
+def job_leak_free(s: str, name: str) -> dict:
+    """Part C: the leak-free search's pick on one healthy generator-D recording as
+    stored."""
+    d = DATA / f"set_{s}"
+    t = pd.read_csv(d / "truth.csv").set_index("name").loc[name]
+    rec = read_recording(str(d / f"{name}.csv"), warn=False)
+    model = load_model(d / f"{name}.model.yaml")
+    return {"set": s, "name": name, "variant": "leak-free, as stored",
+            "pi_period_s": float(t["controller_period"]),
+            "op": _pick(rec, model, _searched_leak_free)}
+
+
+def leak_free_check(n_jobs: int) -> int:
+    jobs = []
+    for s in ("x", "y"):
+        truth = DATA / f"set_{s}" / "truth.csv"
+        if not truth.exists():
+            print(f"unknown_pi_period.py: {truth} missing (make independent draws it)",
+                  file=sys.stderr)
+            return 2
+        t = pd.read_csv(truth)
+        jobs += [(s, r["name"]) for _, r in t[t["class"] == "none"].iterrows()]
+    df = pd.DataFrame(run_loops(job_leak_free, jobs, n_jobs, "healthy loops"))
+    df = df.sort_values(["set", "name"], kind="stable").reset_index(drop=True)
+    df["agrees"] = agrees(df["op"], df["pi_period_s"])
+    tab = _pick_table(df)
+    n = int(df["agrees"].sum())
+    text = "\n".join([
+        "# The PI's period searched with a leak-free reconstruction", "",
+        "Generated by `experiments/unknown_pi_period.py --leak-free` (part C; its "
+        "prediction, written before it ran, is in the docstring). Generator D's 48 healthy "
+        "loops as stored; the search's pick when PV's increments between samples come "
+        "from the model's replay, and whether its period is within a factor 1.3 of the "
+        "PI's (part B: 11 of 48 with the measured PV, 36 with neither noise nor load).", "",
+        to_markdown(tab), "", "## The prediction", "",
+        f"- the pick agrees on at least 24 of 48 ({n}): "
+        f"**{'held' if n >= 24 else 'failed'}**", ""])
+    publish(df, text, OUT / "unknown_pi_period_leak_free")
+    return 0
+
+
+def _pick_table(df: pd.DataFrame) -> pd.DataFrame:
+    return (df.assign(pi=df["pi_period_s"].map(lambda p: f"PI every {p:g} s"))
+            .groupby(["variant", "pi"])
+            .agg(loops=("op", "size"), agree=("agrees", "sum"),
+                 picks=("op", lambda o: ", ".join(f"{k} ×{v}"
+                                                  for k, v in o.value_counts().items())))
+            .reset_index())
+
+
 def agrees(op: pd.Series, period: pd.Series) -> pd.Series:
     """Whether a pick's period (``"recorded"``: the historian's 1 s) is within a factor
     1.3 of the PI's."""
@@ -169,12 +281,7 @@ def quiet_check(n_jobs: int) -> int:
     df = df.sort_values(["variant", "set", "name"], kind="stable").reset_index(drop=True)
     df["agrees"] = agrees(df["op"], df["pi_period_s"])
     n = {v: int(g["agrees"].sum()) for v, g in df.groupby("variant")}
-    tab = (df.assign(pi=df["pi_period_s"].map(lambda p: f"PI every {p:g} s"))
-           .groupby(["variant", "pi"])
-           .agg(loops=("op", "size"), agree=("agrees", "sum"),
-                picks=("op", lambda o: ", ".join(f"{k} ×{v}"
-                                                 for k, v in o.value_counts().items())))
-           .reset_index())
+    tab = _pick_table(df)
     checks = [(f"as stored, the pick agrees on at most 15 of 48 ({n['recorded']})",
                n["recorded"] <= 15),
               (f"with neither noise nor load, on at least 24 ({n['neither']})",
@@ -240,12 +347,16 @@ def main(argv=None) -> int:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--quiet-check", action="store_true",
                     help="part B only: generator D's healthy loops without noise and load")
+    ap.add_argument("--leak-free", action="store_true",
+                    help="part C only: the search with PV's increments from the model")
     a = ap.parse_args(argv)
     if a.jobs < 1:
         print("unknown_pi_period.py: --jobs must be ≥ 1", file=sys.stderr)
         return 2
     if a.quiet_check:
         return quiet_check(a.jobs)
+    if a.leak_free:
+        return leak_free_check(a.jobs)
     jobs = []
     for gen, sets in SETS.items():
         for s in sets:
