@@ -181,6 +181,8 @@ independent: venv
 	$(BIN)/python experiments/harmonic_families.py --jobs 2
 	$(BIN)/python experiments/intersample_op.py --jobs 2
 	$(BIN)/python experiments/unknown_pi_period.py --jobs 2
+	$(BIN)/python experiments/unknown_pi_period.py --jobs 2 --quiet-check
+	$(BIN)/python experiments/unknown_pi_period.py --jobs 2 --leak-free
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor
