@@ -131,7 +131,8 @@ concealed: venv
 # with its scan's size and power varied on synthetic noise (harmonic_size) and the line test
 # on the package's four families (harmonic_families), and the PI's outputs between samples
 # reconstructed (intersample_op), and the PI's period searched where the model gives none
-# (unknown_pi_period; about 410 minutes on 2 cores in all)
+# (unknown_pi_period), and the historian's convention chosen against known
+# (intersample_convention; about 425 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -183,6 +184,7 @@ independent: venv
 	$(BIN)/python experiments/unknown_pi_period.py --jobs 2
 	$(BIN)/python experiments/unknown_pi_period.py --jobs 2 --quiet-check
 	$(BIN)/python experiments/unknown_pi_period.py --jobs 2 --leak-free
+	$(BIN)/python experiments/intersample_convention.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor
