@@ -12,7 +12,7 @@ from ..errors import InputError, user_warning
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..io import read_longest_stretch, write_text
     from ..validation import check_writable, refuse_overwrite
-    from .diagnose import WARNING_KEYS, diagnose
+    from .diagnose import RESOLUTION_FLOOR, WARNING_KEYS, diagnose
     from .model import load_model
 
     if not args.json:
@@ -41,6 +41,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.line_test and model is None:
         raise InputError("--line-test needs --model: it tests the residual of a given "
                          "model for a line")
+    floor = RESOLUTION_FLOOR if args.resolution_floor is None else args.resolution_floor
+    if not (floor >= 0 and math.isfinite(floor)):
+        raise InputError(f"--resolution-floor: expected a validation NRMSE >= 0, got {floor}")
     if args.slip_jump_bootstrap < 0:
         raise InputError(f"--slip-jump-bootstrap: expected a number of null recordings "
                          f">= 0, got {args.slip_jump_bootstrap}")
@@ -49,7 +52,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                  linear_input_gate=args.linear_input_gate is not False,
                  test_highpass_order=args.test_highpass_order,
                  test_noise_family=args.test_noise_family, line_test=args.line_test,
-                 intersample=args.intersample)
+                 intersample=args.intersample, resolution_floor=floor)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
@@ -134,4 +137,9 @@ def add_command(sub) -> None:
                         "reconstructed from its law, in place of the recorded OP "
                         "(details.intersample; on by default, --no-intersample replays "
                         "the recorded OP; reports/concealed/intersample_op.md)")
+    p.add_argument("--resolution-floor", type=float, default=None, metavar="NRMSE",
+                   help="answer none where the nominal model's validation NRMSE is below "
+                        "this (default 0.005, diagnose.RESOLUTION_FLOOR: the model explains "
+                        "PV to within 0.5 %% of its spread; 0 turns it off; "
+                        "details.resolution_floor; reports/concealed/resolution_floor.md)")
     p.set_defaults(func=cmd_diagnose)
