@@ -1015,7 +1015,9 @@ def floor_answer(d: Diagnosis, floor: float = RESOLUTION_FLOOR) -> Diagnosis:
     over a fair part of its span; set a priori, and checked before it was adopted
     (``reports/concealed/resolution_floor.md``): it changed none of the 2112 verdicts of
     the eleven independent sets (noise of 1–10 % of a set-point step: none was below it)
-    and took those clean loops' false alarms from 21 to 10 of 48.
+    and took those clean loops' false alarms from 21 to 10 of 48. A saturation named
+    because OP is held at a limit (:func:`name_held_limit`) is left alone: its evidence
+    is OP itself, and the nominal explains PV there by construction.
 
     Examples
     --------
@@ -1030,6 +1032,10 @@ def floor_answer(d: Diagnosis, floor: float = RESOLUTION_FLOOR) -> Diagnosis:
     """
     nominal = d.fit.get("nominal")
     if d.missing_physics == "none" or nominal is None or not nominal < floor:
+        return d
+    if d.tests.get("op_held_at_limit", {}).get("named"):
+        # read off OP itself, not a fit's improvement: a clamped OP drives the plant as
+        # recorded, so the nominal explains PV there by construction (name_held_limit)
         return d
     d.details["resolution_floor"] = {
         "floor": float(floor), "nominal_nrmse": float(nominal),
