@@ -10,8 +10,10 @@ gives the diagnosis.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import importlib
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -208,6 +210,34 @@ def set_cases(sets: dict[str, tuple[str, ...]], classes: tuple[str, ...],
             todo += [(gen, s, r["name"], int(r.seed), r["class"], v)
                      for _, r in d.iterrows() if keep is None or keep(r) for v in variants]
     return todo
+
+
+def set_truths(sets: Iterable[str], prog: str,
+               data: Path = ROOT / ".cache" / "blindgen") -> dict[str, pd.DataFrame] | None:
+    """Each independent set's ``truth.csv`` (``data/set_S``), by set; ``None`` after one
+    line on stderr naming the first that is missing (the caller exits 2)."""
+    out = {}
+    for s in sets:
+        truth = data / f"set_{s}" / "truth.csv"
+        if not truth.exists():
+            print(f"{prog}: {truth} missing (make independent draws it)", file=sys.stderr)
+            return None
+        out[s] = pd.read_csv(truth)
+    return out
+
+
+@contextlib.contextmanager
+def comparison_patched(fn: Callable) -> Iterator[None]:
+    """``diagnose``'s first stage (``_compare_intersample``) replaced by ``fn`` for the
+    ``with`` block, the shipped one restored after: how the experiments try a different
+    reconstruction of OP in the whole diagnosis."""
+    mod = importlib.import_module("stictionbench.diagnosis.diagnose")
+    shipped = mod._compare_intersample
+    mod._compare_intersample = fn
+    try:
+        yield
+    finally:
+        mod._compare_intersample = shipped
 
 
 def drawn_alike(df: pd.DataFrame, column: str) -> pd.DataFrame:

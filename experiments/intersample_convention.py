@@ -44,7 +44,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 import fast_pi_healthy as fph  # noqa: E402
 import intersample_op as iop  # noqa: E402
 from fast_loops import run_loops  # noqa: E402
-from fresh_recordings import publish  # noqa: E402
+from fresh_recordings import comparison_patched, publish  # noqa: E402
 
 from stictionbench.diagnosis import NominalModel, diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.intersample import effective_op  # noqa: E402
@@ -75,11 +75,8 @@ def _forced(convention: str):
 def _three(rec, model) -> dict:
     out = {}
     for mode in MODES:
-        _D._compare_intersample = _SHIPPED if mode == "chosen" else _forced(mode)
-        try:
+        with comparison_patched(_SHIPPED if mode == "chosen" else _forced(mode)):
             res = diagnose(rec, model)
-        finally:
-            _D._compare_intersample = _SHIPPED
         out[mode] = res.missing_physics
         if mode == "chosen":
             out["picked"] = (res.details.get("intersample") or {}).get("op")

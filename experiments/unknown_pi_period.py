@@ -74,7 +74,12 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import healthy_false_alarms_d as hd  # noqa: E402
 from fast_loops import run_loops  # noqa: E402
-from fresh_recordings import generator_module, publish  # noqa: E402
+from fresh_recordings import (  # noqa: E402
+    comparison_patched,
+    generator_module,
+    publish,
+    set_truths,
+)
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.intersample import CONVENTIONS, effective_op  # noqa: E402
@@ -94,25 +99,36 @@ _D = importlib.import_module("stictionbench.diagnosis.diagnose")
 _SHIPPED = _D._compare_intersample
 
 
-def _searched(rec, model, kw):
-    """:func:`_compare_intersample` with the period searched where the model has none."""
-    cmp = _D.compare(rec, model, **kw)
-    m = cmp.model
-    if m.controller_period is not None or rec.SP is None or m.kc is None or m.ti is None:
-        return _SHIPPED(rec, model, kw)
-    costs = {"recorded": float(_D.search_cost(cmp.nominal))}
-    best, pick = cmp, "recorded"
-    sp, pv, op = (np.asarray(x, float) for x in (rec.SP, rec.PV, rec.OP))
-    for count in COUNTS:
-        for conv in CONVENTIONS:
-            alt = _D.compare(replace(rec, OP=effective_op(sp, pv, op, rec.Ts, m.kc, m.ti,
-                                                          rec.Ts / count, conv)),
-                             model, **kw)
-            key = f"{count}:{conv}"
-            costs[key] = float(_D.search_cost(alt.nominal))
-            if costs[key] < costs[pick]:
-                best, pick = alt, key
-    return best, {"controller_period_s": None, "op": pick, "nominal_training_cost": costs}
+def _measured_op(rec, model, period: float, convention: str) -> np.ndarray:
+    """The shipped reconstruction: PV between samples on the measured line."""
+    return effective_op(np.asarray(rec.SP, float), np.asarray(rec.PV, float),
+                        np.asarray(rec.OP, float), rec.Ts, model.kc, model.ti, period,
+                        convention)
+
+
+def searching(reconstruct):
+    """:func:`_compare_intersample` with the period searched where the model has none:
+    the recorded OP and ``reconstruct(rec, model, Ts/count, convention)`` for every
+    count of :data:`COUNTS` and convention, the nominal's lowest training cost kept."""
+    def search(rec, model, kw):
+        cmp = _D.compare(rec, model, **kw)
+        m = cmp.model
+        if (m.controller_period is not None or rec.SP is None or m.kc is None
+                or m.ti is None):
+            return _SHIPPED(rec, model, kw)
+        costs = {"recorded": float(_D.search_cost(cmp.nominal))}
+        best, pick = cmp, "recorded"
+        for count in COUNTS:
+            for conv in CONVENTIONS:
+                alt = _D.compare(replace(rec, OP=reconstruct(rec, m, rec.Ts / count, conv)),
+                                 model, **kw)
+                key = f"{count}:{conv}"
+                costs[key] = float(_D.search_cost(alt.nominal))
+                if costs[key] < costs[pick]:
+                    best, pick = alt, key
+        info = {"controller_period_s": None, "op": pick, "nominal_training_cost": costs}
+        return best, info | ({"leak_free": True} if reconstruct is leak_free_op else {})
+    return search
 
 
 def leak_free_op(rec, model, period: float, convention: str) -> np.ndarray:
@@ -141,51 +157,24 @@ def leak_free_op(rec, model, period: float, convention: str) -> np.ndarray:
     return u
 
 
-def _searched_leak_free(rec, model, kw):
-    """:func:`_searched` with :func:`leak_free_op` in place of the measured-PV
-    reconstruction."""
-    cmp = _D.compare(rec, model, **kw)
-    m = cmp.model
-    if m.controller_period is not None or rec.SP is None or m.kc is None or m.ti is None:
-        return _SHIPPED(rec, model, kw)
-    costs = {"recorded": float(_D.search_cost(cmp.nominal))}
-    best, pick = cmp, "recorded"
-    for count in COUNTS:
-        for conv in CONVENTIONS:
-            alt = _D.compare(replace(rec, OP=leak_free_op(rec, m, rec.Ts / count, conv)),
-                             model, **kw)
-            key = f"{count}:{conv}"
-            costs[key] = float(_D.search_cost(alt.nominal))
-            if costs[key] < costs[pick]:
-                best, pick = alt, key
-    return best, {"controller_period_s": None, "op": pick, "nominal_training_cost": costs,
-                  "leak_free": True}
-
-
 def job(gen: str, s: str, name: str, cls: str, level: int, period: float) -> dict:
     d = DATA / f"set_{s}"
     rec = read_recording(str(d / f"{name}.csv"), warn=False)
     model = load_model(d / f"{name}.model.yaml")
     out = {"generator": gen, "set": s, "name": name, "class": cls, "level": level,
            "pi_period_s": period}
-    for label, fn in (("shipped", _SHIPPED), ("searched", _searched)):
-        _D._compare_intersample = fn
-        try:
+    for label, fn in (("shipped", _SHIPPED), ("searched", searching(_measured_op))):
+        with comparison_patched(fn):
             res = diagnose(rec, model)
-        finally:
-            _D._compare_intersample = _SHIPPED
         out[label] = res.missing_physics
         if label == "searched":
             out["op"] = (res.details.get("intersample") or {}).get("op", "recorded")
     return out
 
 
-def _pick(rec, model, search=_searched) -> str:
-    _D._compare_intersample = search
-    try:
+def _pick(rec, model, reconstruct=_measured_op) -> str:
+    with comparison_patched(searching(reconstruct)):
         res = diagnose(rec, model)
-    finally:
-        _D._compare_intersample = _SHIPPED
     return (res.details.get("intersample") or {}).get("op", "recorded")
 
 
@@ -217,19 +206,14 @@ def job_leak_free(s: str, name: str) -> dict:
     model = load_model(d / f"{name}.model.yaml")
     return {"set": s, "name": name, "variant": "leak-free, as stored",
             "pi_period_s": float(t["controller_period"]),
-            "op": _pick(rec, model, _searched_leak_free)}
+            "op": _pick(rec, model, leak_free_op)}
 
 
 def leak_free_check(n_jobs: int) -> int:
-    jobs = []
-    for s in ("x", "y"):
-        truth = DATA / f"set_{s}" / "truth.csv"
-        if not truth.exists():
-            print(f"unknown_pi_period.py: {truth} missing (make independent draws it)",
-                  file=sys.stderr)
-            return 2
-        t = pd.read_csv(truth)
-        jobs += [(s, r["name"]) for _, r in t[t["class"] == "none"].iterrows()]
+    truths = set_truths("xy", "unknown_pi_period.py", DATA)
+    if truths is None:
+        return 2
+    jobs = [j[:2] for j in hd.healthy_jobs(truths)]
     df = pd.DataFrame(run_loops(job_leak_free, jobs, n_jobs, "healthy loops"))
     df = df.sort_values(["set", "name"], kind="stable").reset_index(drop=True)
     df["agrees"] = agrees(df["op"], df["pi_period_s"])
@@ -266,16 +250,10 @@ def agrees(op: pd.Series, period: pd.Series) -> pd.Series:
 
 
 def quiet_check(n_jobs: int) -> int:
-    jobs = []
-    for s in ("x", "y"):
-        truth = DATA / f"set_{s}" / "truth.csv"
-        if not truth.exists():
-            print(f"unknown_pi_period.py: {truth} missing (make independent draws it)",
-                  file=sys.stderr)
-            return 2
-        t = pd.read_csv(truth)
-        jobs += [(s, r["name"], int(r["seed"]), int(r["level"]))
-                 for _, r in t[t["class"] == "none"].iterrows()]
+    truths = set_truths("xy", "unknown_pi_period.py", DATA)
+    if truths is None:
+        return 2
+    jobs = hd.healthy_jobs(truths)
     df = pd.DataFrame([r for rs in run_loops(job_quiet, jobs, n_jobs, "healthy loops")
                        for r in rs])
     df = df.sort_values(["variant", "set", "name"], kind="stable").reset_index(drop=True)
@@ -357,16 +335,11 @@ def main(argv=None) -> int:
         return quiet_check(a.jobs)
     if a.leak_free:
         return leak_free_check(a.jobs)
-    jobs = []
-    for gen, sets in SETS.items():
-        for s in sets:
-            truth = DATA / f"set_{s}" / "truth.csv"
-            if not truth.exists():
-                print(f"unknown_pi_period.py: {truth} missing (make independent draws it)",
-                      file=sys.stderr)
-                return 2
-            for _, t in pd.read_csv(truth).iterrows():
-                jobs.append((gen, s, t["name"], t["class"], int(t["level"]), _period(t)))
+    truths = set_truths("".join(SETS.values()), "unknown_pi_period.py", DATA)
+    if truths is None:
+        return 2
+    jobs = [(gen, s, t["name"], t["class"], int(t["level"]), _period(t))
+            for gen, sets in SETS.items() for s in sets for _, t in truths[s].iterrows()]
     df = pd.DataFrame(run_loops(job, jobs, a.jobs, "recordings"))
     df["part"] = np.where(df["class"] == "none", "healthy",
                           np.where(df["class"].isin(STICKY), "stiction and dead band",
