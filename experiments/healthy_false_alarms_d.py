@@ -46,7 +46,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fast_loops import run_loops  # noqa: E402
-from fresh_recordings import generator_module, publish  # noqa: E402
+from fresh_recordings import generator_module, publish, set_truths  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.io import read_recording  # noqa: E402
@@ -89,6 +89,9 @@ def job(s: str, name: str, seed: int, level: int) -> list[dict]:
             res = diagnose(read_recording(str(path), warn=False), model)
             rows.append({"set": s, "name": name, "level": level, "variant": variant,
                          "identical_to_stored": same, "predicted": res.missing_physics,
+                         # the verdict without the resolution floor (resolution_floor.py)
+                         "predicted_unfloored": res.details.get("resolution_floor", {}).get(
+                             "named_before", res.missing_physics),
                          "nominal_nrmse": res.fit["nominal"],
                          "improved_nrmse": res.fit["improved"],
                          "controller_period": sc["Tc"], "hist_op_mode": sc["hist_op_mode"],
@@ -97,6 +100,12 @@ def job(s: str, name: str, seed: int, level: int) -> list[dict]:
                          "load_entry": sc["load_entry"],
                          "n_load_steps": sc.get("n_load_steps", 0)})
     return rows
+
+
+def healthy_jobs(truths: dict[str, pd.DataFrame]) -> list[tuple]:
+    """``(set, name, seed, level)`` of every healthy recording of the sets."""
+    return [(s, r["name"], int(r["seed"]), int(r["level"]))
+            for s, t in truths.items() for _, r in t[t["class"] == "none"].iterrows()]
 
 
 def summary(df: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
@@ -172,16 +181,10 @@ def main(argv=None) -> int:
     if a.jobs < 1:
         print("healthy_false_alarms_d.py: --jobs must be ≥ 1", file=sys.stderr)
         return 2
-    jobs = []
-    for s in SETS:
-        truth = DATA / f"set_{s}" / "truth.csv"
-        if not truth.exists():
-            print(f"healthy_false_alarms_d.py: {truth} missing (make independent draws it)",
-                  file=sys.stderr)
-            return 2
-        t = pd.read_csv(truth)
-        jobs += [(s, r["name"], int(r["seed"]), int(r["level"]))
-                 for _, r in t[t["class"] == "none"].iterrows()]
+    truths = set_truths(SETS, "healthy_false_alarms_d.py", DATA)
+    if truths is None:
+        return 2
+    jobs = healthy_jobs(truths)
     rows = [r for rs in run_loops(job, jobs, a.jobs, "healthy recordings") for r in rs]
     df = pd.DataFrame(rows)
     df["variant"] = pd.Categorical(df["variant"], VARIANTS, ordered=True)

@@ -40,7 +40,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fast_loops import run_loops  # noqa: E402
-from fresh_recordings import publish  # noqa: E402
+from fresh_recordings import publish, set_truths  # noqa: E402
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.io import read_recording  # noqa: E402
@@ -111,20 +111,17 @@ def main(argv=None) -> int:
         print("resolution_floor.py: --jobs must be ≥ 1", file=sys.stderr)
         return 2
     clean_csv = OUT / "healthy_false_alarms_d.csv"
-    jobs = []
-    for gen, sets in SETS.items():
-        for s in sets:
-            truth = DATA / f"set_{s}" / "truth.csv"
-            if not truth.exists():
-                print(f"resolution_floor.py: {truth} missing (make independent draws it)",
-                      file=sys.stderr)
-                return 2
-            jobs += [(gen, s, t["name"], t["class"], int(t["level"]))
-                     for _, t in pd.read_csv(truth).iterrows()]
+    truths = set_truths("".join(SETS.values()), "resolution_floor.py", DATA)
+    if truths is None:
+        return 2
+    jobs = [(gen, s, t["name"], t["class"], int(t["level"]))
+            for gen, sets in SETS.items() for s in sets for _, t in truths[s].iterrows()]
     df = pd.DataFrame(run_loops(job, jobs, a.jobs, "recordings"))
     df = df.sort_values(["generator", "set", "name"], kind="stable").reset_index(drop=True)
     clean = pd.read_csv(clean_csv)
-    clean = clean[clean["variant"] == "neither"]
+    # the clean loops' verdicts as diagnose gives them without the floor
+    clean = clean[clean["variant"] == "neither"].assign(
+        predicted=lambda d: d["predicted_unfloored"])
     tab, lines = summary(df, clean)
     text = "\n".join([
         "# A floor under what the diagnosis names", "",
