@@ -176,10 +176,10 @@ def remake(gen: str, seed: int, cls: str, out: Path, loop: Callable[[dict], dict
 
 
 def remade_verdict(gen: str, seed: int, cls: str, name: str, loop: Callable[[dict], dict],
-                   substreams: tuple[str, ...] = ()) -> dict:
-    """:func:`remake`'s level-1 recording diagnosed with its model YAML at the package's
-    defaults: the loop's draw attempts, the verdict, the slip-jump test's p-value and the
-    in-band degrees of freedom."""
+                   substreams: tuple[str, ...] = (), level: int = 1) -> dict:
+    """:func:`remake`'s recording (at ``level``, default 1) diagnosed with its model YAML
+    at the package's defaults: the loop's draw attempts, the verdict, the slip-jump
+    test's p-value and the in-band degrees of freedom."""
     import tempfile
 
     from stictionbench.diagnosis import diagnose, load_model
@@ -187,7 +187,7 @@ def remade_verdict(gen: str, seed: int, cls: str, name: str, loop: Callable[[dic
 
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
-        _, attempts = remake(gen, seed, cls, d, loop, substreams, name)
+        _, attempts = remake(gen, seed, cls, d, loop, substreams, name, level)
         r = diagnose(read_recording(str(d / f"{name}.csv"), warn=False),
                      load_model(d / f"{name}.model.yaml"))
     return {"attempts": attempts, "predicted": r.missing_physics,
