@@ -71,7 +71,8 @@ real: venv
 
 # concealed-data benchmark of the diagnosis: 3 generator families, leave-one-family-out,
 # with the nominal model, model-free, with output-error fits for comparison, and the
-# verdicts' stability with the records trimmed (about 20 minutes on 2 cores)
+# verdicts' stability with the records trimmed (over an hour on 2 cores: eight of these
+# experiments took 30 minutes on 2026-12-03), then `make independent` (hours more)
 concealed: venv
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2
 	$(BIN)/python experiments/concealed.py --seeds 4 --none-seeds 12 --jobs 2 --model-free
@@ -132,7 +133,8 @@ concealed: venv
 # on the package's four families (harmonic_families), and the PI's outputs between samples
 # reconstructed (intersample_op), and the PI's period searched where the model gives none
 # (unknown_pi_period), and the historian's convention chosen against known
-# (intersample_convention; about 425 minutes on 2 cores in all)
+# (intersample_convention), and every class of the sets re-made with the PI at 0.2 s and
+# at 1 s (controller_rate_classes; about 450 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -185,6 +187,7 @@ independent: venv
 	$(BIN)/python experiments/unknown_pi_period.py --jobs 2 --quiet-check
 	$(BIN)/python experiments/unknown_pi_period.py --jobs 2 --leak-free
 	$(BIN)/python experiments/intersample_convention.py --jobs 2
+	$(BIN)/python experiments/controller_rate_classes.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

@@ -231,8 +231,37 @@ def report(df: pd.DataFrame) -> str:
         f"3. Level 2, pooled: score {score(2, 0.2):.1f} at 0.2 s, {score(2, 1.0):.1f} at "
         f"1 s (change {d2:+.1f}): {word[pred3]}.",
         "",
+        "## Reading",
+        "",
+        *reading(pr, pd_, score(1, 1.0)),
+        "",
     ]
     return "\n".join(lines)
+
+
+def _misses(pr: pd.DataFrame, level: int, period: float, top: int = 6) -> str:
+    """The commonest ``true → named`` misses at ``level`` and ``period``, pooled."""
+    x = pr[(pr.level == level) & (pr.period == period) & (pr.predicted != pr["class"])]
+    c = (x["class"] + " → " + x.predicted).value_counts().head(top)
+    return ", ".join(f"{k} ×{v}" for k, v in c.items())
+
+
+def reading(pr: pd.DataFrame, p_dead_lag: float, l1_slow: float) -> list[str]:
+    """What the run says, from its numbers."""
+    lag = ("not a measurable change (McNemar p = "
+           f"{p_dead_lag:.2g}): the PI's rate does not explain that confusion on these loops"
+           if p_dead_lag >= 0.05 else f"a measurable change (McNemar p = {p_dead_lag:.2g})")
+    return [
+        "- With the PI at the historian's rate the level-1 score is "
+        f"{l1_slow:.1f} of 16, still {15 - l1_slow:.1f} short of the goal of 15: the "
+        "controller's rate accounts for part of the shortfall, not most of it.",
+        f"- The commonest level-1 misses with the PI at 1 s: {_misses(pr, 1, 1.0)}; at "
+        f"0.2 s: {_misses(pr, 1, 0.2)}.",
+        f"- True dead times named `sensor_lag` (prediction 2, held by its letter): {lag}.",
+        f"- The commonest level-2 misses with the PI at 1 s: {_misses(pr, 2, 1.0)}: "
+        "effects too small for the test at either rate ([oracle_ceiling.md]"
+        "(oracle_ceiling.md)).",
+    ]
 
 
 def main(argv: list[str] | None = None) -> int:
