@@ -29,7 +29,10 @@
    (:mod:`.cycle`), which names a significant valve over hypotheses that need an
    external source; and where a dead time's or sensor lag's improvement lies in
    frequency (:mod:`.line`): one that gains at the residual's line and loses everywhere
-   else has followed OP's echo of an external oscillation, which is named instead.
+   else has followed OP's echo of an external oscillation, which is named instead. Its
+   end, :func:`answer`, makes the verdict the answer (the slow band's second look, OP
+   held at a limit, the set-point gain test) and says whether the data could tell it
+   from its closest rival (:mod:`.rival`).
 """
 
 from __future__ import annotations
@@ -94,12 +97,12 @@ from .process import (
     identify_fopdt,
     setpoint_excitation,
 )
+from .rival import rival_test
 
-__all__ = ["Diagnosis", "closed_loop_replay", "compare", "cycle_evidence", "diagnose", "fit",
-           "fit_fopdt", "harmonic_line", "hypothesise", "identify_fopdt", "line_waiver",
-           "locate", "name_gain_error",
-           "after_comparison",
-           "name_held_limit", "own_resolution", "validate", "valve_output"]
+__all__ = ["Diagnosis", "after_comparison", "answer", "closed_loop_replay", "compare",
+           "cycle_evidence", "diagnose", "fit", "fit_fopdt", "harmonic_line", "hypothesise",
+           "identify_fopdt", "line_waiver", "locate", "name_gain_error", "name_held_limit",
+           "own_resolution", "validate", "valve_output"]
 
 
 #: a given time constant beyond this many record lengths leaves no part of the response
@@ -946,25 +949,51 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         detectable = minimum_detectable(
             cmp.ctx, cmp.prob.band, cmp.prob.f_hp, cmp.prob.f_lp, fits["none"], verdict,
             cmp.prob.val, alpha=alpha, gate=gate, highpass_order=test_highpass_order)
+    d = answer(cmp, loc, fits, ham, verdict, alpha=alpha, min_improvement=min_improvement,
+               lp_factor=lp_factor, highpass_order=test_highpass_order)
+    _record_settings(d, cmp, fits, line, alpha=alpha, dof=dof, gate=gate,
+                     linear_input_gate=linear_input_gate, highpass_order=test_highpass_order,
+                     line_test=line_test, detectable=detectable, between=between)
+    d = floor_answer(d, resolution_floor)
+    d.details["seconds"] = time.perf_counter() - t0
+    return d
+
+
+def answer(cmp: Comparison, loc: Location, fits: dict[str, Fit],
+           ham: HammersteinResult | None, verdict: Verdict, *, alpha: float = ALPHA,
+           min_improvement: float = MIN_IMPROVEMENT, lp_factor: float = 5.0,
+           highpass_order: int = 2) -> Diagnosis:
+    """The end of stage 5: the validated verdict made the answer, after the checks that
+    look where the main band's tests do not.
+
+    In order: the slow band's second look (:func:`second_look`: a line slower than the
+    band); without it, against a given model, the full-data test of a travel limit or a
+    curved characteristic whose episodes the validation blocks miss
+    (:func:`.evidence.with_range_fallback`); where the pick's improvement lies in
+    frequency (:func:`name_line`: an OP-driven fit that gains at the residual's line
+    alone has explained an external oscillation); OP held at a limit
+    (:func:`name_held_limit`) and the set-point gain test (:func:`name_gain_error`)
+    where nothing else was named (:func:`after_comparison`); and whether the data could
+    tell the answer from its closest rival (:func:`.rival.rival_test`, ``tests.rival``;
+    it informs, it does not decide)."""
     look = second_look(cmp, verdict, alpha=alpha, min_improvement=min_improvement,
-                       lp_factor=lp_factor, highpass_order=test_highpass_order)
-    if (look is None or not look.named) and cmp.ctx.model_given and cmp.pem:
-        # a travel limit or curved characteristic whose episodes the validation blocks
-        # miss: the full-data test, where nothing else was named (evidence.range_fallback)
+                       lp_factor=lp_factor, highpass_order=highpass_order)
+    named_by_look = look is not None and look.named
+    if not named_by_look and cmp.ctx.model_given and cmp.pem:
         c = cmp.ctx
         verdict = with_range_fallback(verdict, c.op, c.Ts, cmp.prob.f_hp, cmp.prob.val)
-    if look is not None and look.named:
+    if named_by_look:
         # the answer, its fit and tests from the look's band; the ranking stays the main
         # band's (every hypothesis, comparable scores), the look's row in details
         d = _assemble(look.cmp, look.loc, look.fits, look.verdict, ham,
                       ranking=verdict.ranking)
+        used, val = look.verdict, look.cmp.prob.val
     else:
         d = _assemble(cmp, loc, fits, verdict, ham)
+        used, val = verdict, cmp.prob.val
     if look is not None:
         d.details["slow_line"] = look.to_dict()
-    if look is None or not look.named:
-        # where the pick's improvement lies in frequency (.line): an OP-driven fit that
-        # gains at the residual's line alone has explained an external oscillation
+    if not named_by_look:
         b = cmp.burn
         d = name_line(d, line_confinement(
             fits["none"].resid[b:], {h: ft.resid[b:] for h, ft in fits.items()},
@@ -974,13 +1003,26 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     changed = named != d.missing_physics
     d = name_held_limit(d, held, changed and named == "saturation")
     d = name_gain_error(d, gain, changed and named == "valve_characteristic")
+    d.tests["rival"] = rival_test(d.missing_physics, used.ranking, used.innovations, val,
+                                  alpha)
+    return d
+
+
+def _record_settings(d: Diagnosis, cmp: Comparison, fits: dict[str, Fit],
+                     line: LineTest | None, *, alpha: float, dof: float, gate: float,
+                     linear_input_gate: bool, highpass_order: int, line_test: bool,
+                     detectable: dict[str, Any] | None,
+                     between: dict[str, Any] | None) -> None:
+    """The settings the answer was reached under, and the record's warnings, in
+    ``d.details`` (and the harmonic line test in ``d.tests``), in place."""
+    given = cmp.ctx.model_given
     d.details["band_dof"] = dof
-    d.details["linear_input_gate"] = bool(linear_input_gate and cmp.ctx.model_given)
-    d.details["test_highpass_order"] = test_highpass_order if cmp.ctx.model_given else None
+    d.details["linear_input_gate"] = bool(linear_input_gate and given)
+    d.details["test_highpass_order"] = highpass_order if given else None
     d.details["noise_family"] = cmp.noise_family
     d.details["test_noise_family"] = cmp.test_noise_family
     d.details["nrmse_gate"] = gate
-    d.details["line_test"] = bool(line_test and cmp.ctx.model_given)
+    d.details["line_test"] = bool(line_test and given)
     if line is not None:
         fitted = fits.get("oscillatory_disturbance")
         period = None if fitted is None else fitted.params.get("period")
@@ -997,9 +1039,6 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d.details["controller_rate_warning"] = why
     if between is not None:
         d.details["intersample"] = between
-    d = floor_answer(d, resolution_floor)
-    d.details["seconds"] = time.perf_counter() - t0
-    return d
 
 
 def floor_answer(d: Diagnosis, floor: float = RESOLUTION_FLOOR) -> Diagnosis:
@@ -1044,6 +1083,9 @@ def floor_answer(d: Diagnosis, floor: float = RESOLUTION_FLOOR) -> Diagnosis:
         "reason": (f"the nominal model explains PV to within {nominal:.2g} of its spread "
                    f"on the validation blocks (below {floor:g}): nothing is named")}
     d.missing_physics, d.parameters, d.uncertainty = "none", {}, {}
+    if "rival" in d.tests:
+        d.tests["rival"] = {"method": d.tests["rival"].get("method", "vuong"), "rival": None,
+                            "reason": "the answer is the nominal model (resolution floor)"}
     fit = {**d.fit, "improved": nominal}
     if isinstance(fit.get("innovation_variance"), dict):
         iv = fit["innovation_variance"]
