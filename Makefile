@@ -134,7 +134,8 @@ concealed: venv
 # reconstructed (intersample_op), and the PI's period searched where the model gives none
 # (unknown_pi_period), and the historian's convention chosen against known
 # (intersample_convention), and every class of the sets re-made with the PI at 0.2 s and
-# at 1 s (controller_rate_classes; about 450 minutes on 2 cores in all)
+# at 1 s (controller_rate_classes), and the answer's rival test read against the sets'
+# truth (rival_evidence; about 475 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -188,6 +189,7 @@ independent: venv
 	$(BIN)/python experiments/unknown_pi_period.py --jobs 2 --leak-free
 	$(BIN)/python experiments/intersample_convention.py --jobs 2
 	$(BIN)/python experiments/controller_rate_classes.py --jobs 2
+	$(BIN)/python experiments/rival_evidence.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor
