@@ -35,6 +35,12 @@ MIN_RUN = 3
 HELD_ELSEWHERE = 0.01
 #: an extreme within this share of the range of an end of OP's known range is that end
 RANGE_END_RTOL = 0.005
+#: whether OP exactly on an end of its known range on at least :data:`MIN_RUN` samples,
+#: not consecutive, is a hold too (a PI executing faster than the historian is clamped
+#: between samples and kicked off the limit by PV noise, so its snapshots sit on the
+#: limit in ones and twos; an output that moves is exactly on 0 or 100 % only when
+#: clamped)
+SCATTERED = False
 
 
 def _runs(mask: np.ndarray, min_run: int) -> tuple[int, int, int]:
@@ -45,8 +51,14 @@ def _runs(mask: np.ndarray, min_run: int) -> tuple[int, int, int]:
     return int(long_.sum()), int(long_.size), int(lengths.max(initial=0))
 
 
+def _key(row: dict[str, Any], scattered: bool) -> tuple[float, int]:
+    """Which extreme to report: the one with more of OP in holds, then (counting
+    scattered samples) the one OP sits on more often."""
+    return row["fraction"], row["samples_at_end"] if scattered else 0
+
+
 def held_at_limit(op: np.ndarray, op_range: tuple[float, float] | None = None, *,
-                  min_run: int = MIN_RUN) -> dict[str, Any]:
+                  min_run: int = MIN_RUN, scattered: bool = SCATTERED) -> dict[str, Any]:
     """Whether OP is held at an end of its range, and where and how long.
 
     Parameters
@@ -57,6 +69,10 @@ def held_at_limit(op: np.ndarray, op_range: tuple[float, float] | None = None, *
         OP's 0 and 100 % in its own units, when known.
     min_run : int
         Consecutive samples exactly at the extreme that make a hold.
+    scattered : bool
+        Also count as held an extreme that is an end of ``op_range`` where OP sits
+        exactly on at least ``min_run`` samples, consecutive or not
+        (:data:`SCATTERED`).
 
     Returns
     -------
@@ -64,8 +80,9 @@ def held_at_limit(op: np.ndarray, op_range: tuple[float, float] | None = None, *
         ``held`` (bool), ``side`` (``"high"``, ``"low"`` or ``None``), ``limit`` (OP's
         value there), ``fraction`` (share of samples in holds of at least ``min_run``),
         ``runs``, ``longest_run`` (samples), ``held_elsewhere`` (share of exactly
-        unchanged steps away from the extremes) and ``at_range_end`` (the extreme is an
-        end of ``op_range``).
+        unchanged steps away from the extremes), ``at_range_end`` (the extreme is an
+        end of ``op_range``), ``samples_at_end`` (samples exactly on it, there) and
+        ``by`` (``"run"``, ``"scattered"`` or ``None``: which rule found the hold).
 
     Examples
     --------
@@ -83,7 +100,8 @@ def held_at_limit(op: np.ndarray, op_range: tuple[float, float] | None = None, *
     span = hi - lo
     out: dict[str, Any] = {"held": False, "side": None, "limit": None, "fraction": 0.0,
                            "runs": 0, "longest_run": 0, "min_run": min_run,
-                           "held_elsewhere": 0.0, "at_range_end": False}
+                           "held_elsewhere": 0.0, "at_range_end": False,
+                           "samples_at_end": 0, "by": None}
     if not span > 0:
         return out
     elsewhere = own_holds(x)
@@ -91,15 +109,19 @@ def held_at_limit(op: np.ndarray, op_range: tuple[float, float] | None = None, *
     tol = 1e-9 * max(span, abs(hi), abs(lo))
     best = None
     for side, v in (("high", hi), ("low", lo)):
-        n_in, n_runs, longest = _runs(np.abs(x - v) <= tol, min_run)
+        at = np.abs(x - v) <= tol
+        n_in, n_runs, longest = _runs(at, min_run)
         end = op_range is not None and abs(
             v - (op_range[1] if side == "high" else op_range[0])) <= RANGE_END_RTOL * (
             op_range[1] - op_range[0])
         row = {"side": side, "limit": v, "fraction": n_in / x.size, "runs": n_runs,
-               "longest_run": longest, "at_range_end": bool(end)}
-        if best is None or row["fraction"] > best["fraction"]:
+               "longest_run": longest, "at_range_end": bool(end),
+               "samples_at_end": int(at.sum()) if end else 0}
+        if best is None or _key(row, scattered) > _key(best, scattered):
             best = row
     out.update(best)
-    out["held"] = bool(best["runs"] > 0 and (elsewhere < HELD_ELSEWHERE
-                                             or best["at_range_end"]))
+    by_run = best["runs"] > 0 and (elsewhere < HELD_ELSEWHERE or best["at_range_end"])
+    by_count = scattered and best["samples_at_end"] >= min_run
+    out["held"] = bool(by_run or by_count)
+    out["by"] = "run" if by_run else ("scattered" if by_count else None)
     return out
