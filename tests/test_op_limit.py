@@ -74,3 +74,20 @@ def test_the_same_loop_within_reach_is_none():
     d = diagnose(rec, MODEL)
     assert not d.tests["op_held_at_limit"]["held"]
     assert d.missing_physics == "none"
+
+
+def test_scattered_samples_at_a_range_end_count_only_when_asked():
+    # a PI faster than the historian: its snapshots touch 100 % in ones and twos
+    rng = np.random.default_rng(1)
+    op = rng.uniform(80.0, 99.0, 400)
+    op[[50, 51, 120, 300]] = 100.0
+    shipped = held_at_limit(op, (0.0, 100.0))
+    assert not shipped["held"] and shipped["by"] is None and shipped["longest_run"] == 2
+    r = held_at_limit(op, (0.0, 100.0), scattered=True)
+    assert r["held"] and r["by"] == "scattered" and r["side"] == "high"
+    assert r["samples_at_end"] == 4
+    # not at an end of the known range, or fewer than MIN_RUN samples: no hold
+    assert not held_at_limit(op, (0.0, 120.0), scattered=True)["held"]
+    op[300] = 99.5
+    op[120] = 99.0
+    assert not held_at_limit(op, (0.0, 100.0), scattered=True)["held"]
