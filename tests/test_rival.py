@@ -114,3 +114,15 @@ def test_the_floor_withdraws_the_rival_with_the_answer():
     assert d.missing_physics != "none"
     floored = floor_answer(d, floor=10.0)
     assert floored.missing_physics == "none" and floored.tests["rival"]["rival"] is None
+
+
+def test_the_report_says_when_the_rival_cannot_be_told_apart(lag_rec):
+    from stictionbench.diagnosis.report import summary_markdown
+
+    d = diagnose(lag_rec, NOM)
+    d.tests["rival"] = {"method": "vuong", "rival": "dead_time", "statistic": 0.2,
+                        "p_value": 0.42, "distinguishable": False, "n": 1000}
+    text = summary_markdown(d)
+    assert "Closest rival: dead_time" in text and "fits both about alike" in text
+    d.tests["rival"] = {"method": "vuong", "rival": None, "reason": "none passed"}
+    assert "Closest rival" not in summary_markdown(d)

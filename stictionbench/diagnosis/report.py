@@ -160,6 +160,17 @@ def _held_lines(d: Diagnosis) -> list[str]:
             f"{t['min_run']} samples, the longest {t['longest_run']}): {said}."]
 
 
+def _rival_lines(d: Diagnosis) -> list[str]:
+    """The answer against its closest rival (:func:`.rival.rival_test`), when it had one."""
+    t = d.tests.get("rival") or {}
+    if not t.get("rival"):
+        return []
+    verdict = ("the record tells them apart" if t["distinguishable"] else
+               "the record fits both about alike: read the answer as one of the two")
+    return [f"- Closest rival: {t['rival']}, which also passed every gate (Vuong's test of "
+            f"{d.missing_physics} against it: p = {t['p_value']:.2g}): {verdict}."]
+
+
 def _gate_lines(d: Diagnosis) -> list[str]:
     """Why a valve hypothesis that beats the nominal model was not credited (model-free:
     it must also beat the linear loop re-identified under the same criterion)."""
@@ -265,6 +276,7 @@ def summary_markdown(d: Diagnosis) -> str:
         *_range_lines(d),
         *_line_lines(d),
         *_held_lines(d),
+        *_rival_lines(d),
         *_residual_lines(d),
         *_detectable_lines(d),
         "",
