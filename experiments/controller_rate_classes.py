@@ -55,13 +55,11 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 from fresh_recordings import (  # noqa: E402
     drawn_alike,
-    jobs_reuse_args,
     paired_change,
-    publish,
     rate_bars,
     remade_verdict,
     set_cases,
-    stored_or_run,
+    stored_experiment,
 )
 from slip_jump_pi_rate import MIN_TAU, SETS, SUBSTREAMS, _true_tau  # noqa: E402
 
@@ -265,12 +263,9 @@ def reading(pr: pd.DataFrame, p_dead_lag: float, l1_slow: float) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv)
-    df = stored_or_run(STEM, args.reuse, one, cases, args.jobs,
-                       ["level", "generator", "set", "name", "period"])
-    figure(paired(df), STEM.with_suffix(".png"))
-    publish(df, report(df), STEM)
-    return 0
+    return stored_experiment(__doc__, STEM, one, cases,
+                             ["level", "generator", "set", "name", "period"], report, argv,
+                             figure=lambda df, path: figure(paired(df), path))
 
 
 if __name__ == "__main__":

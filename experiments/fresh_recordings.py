@@ -195,6 +195,21 @@ def remade_verdict(gen: str, seed: int, cls: str, name: str, loop: Callable[[dic
             "band_dof": r.details.get("band_dof")}
 
 
+def stored_experiment(doc: str, stem: Path, fn: Callable[..., dict],
+                      todo: Callable[[], list[tuple]], sort_by: list[str],
+                      report: Callable[[pd.DataFrame], str], argv: list[str] | None = None,
+                      figure: Callable[[pd.DataFrame, Path], None] | None = None) -> int:
+    """An experiment's whole command line: ``--jobs`` and ``--reuse``
+    (:func:`jobs_reuse_args`), its per-recording table (:func:`stored_or_run`), its
+    figure ``stem.png`` when it has one, and its report (:func:`publish`)."""
+    args = jobs_reuse_args(doc, "re-make the report from the stored CSV", argv)
+    df = stored_or_run(stem, args.reuse, fn, todo, args.jobs, sort_by)
+    if figure is not None:
+        figure(df, stem.with_suffix(".png"))
+    publish(df, report(df), stem)
+    return 0
+
+
 def set_cases(sets: dict[str, tuple[str, ...]], classes: tuple[str, ...],
               variants: tuple, keep: Callable[[pd.Series], bool] | None = None,
               level: int = 1) -> list[tuple]:

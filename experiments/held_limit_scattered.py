@@ -54,7 +54,14 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from concealed import decide  # noqa: E402
-from fresh_recordings import CLASSES, FAMILIES, publish, recording, run  # noqa: E402
+from fresh_recordings import (  # noqa: E402
+    CLASSES,
+    FAMILIES,
+    jobs_reuse_args,
+    publish,
+    recording,
+    run,
+)
 
 from stictionbench.diagnosis.evidence import ALPHA, MIN_IMPROVEMENT  # noqa: E402
 from stictionbench.diagnosis.op_limit import held_at_limit  # noqa: E402
@@ -127,6 +134,12 @@ def part_c() -> pd.DataFrame:
                          "class": rec.meta.get("label"), "held_shipped": old,
                          "held_candidate": new})
     return pd.DataFrame(rows)
+
+
+def decision(adopted: bool) -> str:
+    """The report's last line: whether the candidate becomes the default."""
+    return "Decision: " + ("**adopted** (`op_limit.SCATTERED = True`)." if adopted
+                           else "**not adopted**.")
 
 
 def _scores(a: pd.DataFrame) -> pd.DataFrame:
@@ -210,20 +223,14 @@ def report(df: pd.DataFrame) -> str:
         f"2. Part B: new holds on other classes {len(new_b_other)} of "
         f"{int((b['class'] != 'saturation').sum())}: {word[pred2]}.",
         "",
-        "Decision: " + ("**adopted** (`op_limit.SCATTERED = True`)." if pred1 and pred2
-                        else "**not adopted**."),
+        decision(pred1 and pred2),
         "",
     ]
     return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
-    import argparse
-
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--jobs", type=int, default=1)
-    ap.add_argument("--reuse", action="store_true", help="re-make the report from the CSV")
-    args = ap.parse_args(argv)
+    args = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv)
     if args.reuse:
         df = pd.read_csv(STEM.with_suffix(".csv"))
     else:

@@ -54,12 +54,11 @@ from concealed import decide, decision_row  # noqa: E402
 from fresh_recordings import (  # noqa: E402
     CLASSES,
     FAMILIES,
-    jobs_reuse_args,
-    publish,
     recording,
     set_truths,
-    stored_or_run,
+    stored_experiment,
 )
+from held_limit_scattered import decision  # noqa: E402
 
 from stictionbench.diagnosis.evidence import ALPHA, MIN_IMPROVEMENT  # noqa: E402
 from stictionbench.diagnosis.op_limit import held_at_limit  # noqa: E402
@@ -178,18 +177,14 @@ def report(df: pd.DataFrame) -> str:
         f"1. No verdict of another class changed: {len(other)} changed: {word[ok1]}.",
         f"2. Saturation named at least as often as shipped in every group: {word[ok2]}.",
         "",
-        "Decision: " + ("**adopted** (`op_limit.SCATTERED = True`)." if ok1 and ok2
-                        else "**not adopted**."),
+        decision(ok1 and ok2),
         "",
     ]
     return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv)
-    df = stored_or_run(STEM, args.reuse, one, cases, args.jobs, ["group", "name"])
-    publish(df, report(df), STEM)
-    return 0
+    return stored_experiment(__doc__, STEM, one, cases, ["group", "name"], report, argv)
 
 
 if __name__ == "__main__":

@@ -46,7 +46,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import jobs_reuse_args, publish, set_truths, stored_or_run  # noqa: E402
+from fresh_recordings import set_truths, stored_experiment  # noqa: E402
 
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -161,10 +161,7 @@ def report(df: pd.DataFrame) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv)
-    df = stored_or_run(STEM, args.reuse, one, cases, args.jobs, ["set", "name"])
-    publish(df, report(df), STEM)
-    return 0
+    return stored_experiment(__doc__, STEM, one, cases, ["set", "name"], report, argv)
 
 
 if __name__ == "__main__":

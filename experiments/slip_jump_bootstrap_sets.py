@@ -39,7 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import jobs_reuse_args, publish, stored_or_run  # noqa: E402
+from fresh_recordings import stored_experiment  # noqa: E402
 from linear_input_gate import DATA, set_recording  # noqa: E402
 
 from stictionbench.diagnosis import diagnose  # noqa: E402
@@ -127,10 +127,8 @@ def report(df: pd.DataFrame) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv)
-    df = stored_or_run(STEM, args.reuse, one, cases, args.jobs, ["generator", "set", "name"])
-    publish(df, report(df), STEM)
-    return 0
+    return stored_experiment(__doc__, STEM, one, cases, ["generator", "set", "name"], report,
+                             argv)
 
 
 if __name__ == "__main__":

@@ -48,12 +48,10 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 from fresh_recordings import (  # noqa: E402
     drawn_alike,
-    jobs_reuse_args,
     paired_change,
-    publish,
     remade_verdict,
     set_cases,
-    stored_or_run,
+    stored_experiment,
     valve_verdicts,
 )
 from fresh_recordings import remake as fresh_remake  # noqa: E402
@@ -171,11 +169,8 @@ def report(df: pd.DataFrame) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = jobs_reuse_args(__doc__, "re-make the report from the stored CSV", argv)
-    df = stored_or_run(STEM, args.reuse, one, cases, args.jobs,
-                       ["generator", "set", "name", "factor"])
-    publish(df, report(df), STEM)
-    return 0
+    return stored_experiment(__doc__, STEM, one, cases,
+                             ["generator", "set", "name", "factor"], report, argv)
 
 
 if __name__ == "__main__":
