@@ -137,8 +137,9 @@ concealed: venv
 # at 1 s (controller_rate_classes), and the answer's rival test read against the sets'
 # truth (rival_evidence), and scattered samples at OP's range end as a hold
 # (held_limit_scattered, and its answers on fresh recordings: held_limit_verdicts), and
-# generator C's one-sample dead-time changes made a second longer (dead_time_one_sample;
-# about 490 minutes on 2 cores in all)
+# generator C's one-sample dead-time changes made a second longer (dead_time_one_sample),
+# and generator C's classes re-made with the true process equal to the model (model_error;
+# about 510 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -196,6 +197,7 @@ independent: venv
 	$(BIN)/python experiments/held_limit_scattered.py --jobs 2
 	$(BIN)/python experiments/held_limit_verdicts.py --jobs 2
 	$(BIN)/python experiments/dead_time_one_sample.py --jobs 2
+	$(BIN)/python experiments/model_error.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor
