@@ -114,6 +114,7 @@ def test_short_disturbance_in_a_tight_loop_is_named():
     assert d.missing_physics == "oscillatory_disturbance"
     assert d.parameters["period"] == pytest.approx(15.0, rel=0.01)
     assert d.details["lowpass_hz"] > 3.0 / 15.0
+    assert d.details["decided_by"] == "likelihood_tests"
     # the same loop without the line: no line in the residual, the band cut from τ; the
     # tight PI drives OP to 100 % for three samples at each set-point step, which the
     # OP-hold check reports as a saturation (diagnosis.op_limit), the comparison nothing
@@ -121,6 +122,11 @@ def test_short_disturbance_in_a_tight_loop_is_named():
     held = d0.tests["op_held_at_limit"]
     assert held["held"] and held["limit"] == 100.0 and held["longest_run"] == 3
     assert d0.missing_physics == "saturation" and held["named"]
+    # the route is said, and the ranking (where nothing passed) does not claim the choice
+    assert d0.details["decided_by"] == "op_held_at_limit"
+    text = summary_markdown(d0)
+    assert "Decided by OP held at a limit" in text
+    assert "| yes (op held at limit) |" in text and "| yes |" not in text
     assert all(not r["significant"] for r in d0.ranking if r["physics"] != "none")
     assert d0.details["lowpass_hz"] == pytest.approx(5.0 / (2 * math.pi * 40.0))
 
@@ -202,6 +208,8 @@ def test_range_fallback_in_the_diagnosis():
     assert g.parameters and g.tests["vs_nominal"]["p_value"] == next(
         r["p_value"] for r in g.ranking if r["physics"] == "saturation")
     assert "full-data test" in summary_markdown(g)
+    assert d.details["decided_by"] == "likelihood_tests"
+    assert g.details["decided_by"] == "full_data_range"
     # without a model the nominal was fitted on every block: the test is not applied
     assert "full_data_range" not in diagnose(rec, None, min_improvement=10.0).tests
 

@@ -17,6 +17,7 @@ from pi_loop import velocity_pi_loop  # noqa: E402
 from stictionbench.diagnosis import NominalModel, diagnose  # noqa: E402
 from stictionbench.diagnosis.diagnose import compare  # noqa: E402
 from stictionbench.diagnosis.gain import GAIN_TOLERANCE, setpoint_gain  # noqa: E402
+from stictionbench.diagnosis.report import summary_markdown  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 
 K, TAU, THETA, KC, TI = 2.0, 10.0, 4.0, 0.3, 10.0
@@ -77,6 +78,12 @@ def test_diagnosis_names_the_gain_error_with_its_interval():
     lo, hi = d.uncertainty["gain_ratio"]
     assert lo < d.parameters["gain_ratio"] < hi
     assert d.fit["improved"] < d.fit["nominal"]
+    # the summary says which check named it, and the ranking does not claim it
+    assert d.details["decided_by"] == "setpoint_gain"
+    text = summary_markdown(d)
+    assert "Decided by the set-point gain test" in text
+    assert "Named by the set-point gain test: the loop's gain measured" in text
+    assert "| yes (setpoint gain) |" in text
 
 
 def test_diagnosis_of_the_right_gain_reports_the_test_and_names_nothing():

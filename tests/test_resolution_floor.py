@@ -40,6 +40,8 @@ def test_a_clean_healthy_loop_gets_none_and_the_floor_says_what_it_held_back(cle
     assert floor["named_before"] == off.missing_physics
     assert floor["nominal_nrmse"] == pytest.approx(off.fit["nominal"])
     assert on.fit["improved"] == on.fit["nominal"]
+    assert off.details["decided_by"] != "resolution_floor"
+    assert on.details["decided_by"] == "resolution_floor"
     json.dumps(on.to_json(), allow_nan=False)  # the CLI's JSON holds it
 
 

@@ -1005,6 +1005,7 @@ def answer(cmp: Comparison, loc: Location, fits: dict[str, Fit],
     d = name_gain_error(d, gain, changed and named == "valve_characteristic")
     d.tests["rival"] = rival_test(d.missing_physics, used.ranking, used.innovations, val,
                                   alpha)
+    d.details["decided_by"] = decided_by(d)
     return d
 
 
@@ -1091,7 +1092,57 @@ def floor_answer(d: Diagnosis, floor: float = RESOLUTION_FLOOR) -> Diagnosis:
         iv = fit["innovation_variance"]
         fit["innovation_variance"] = {**iv, "improved": iv.get("nominal")}
     d.fit = fit
+    d.details["decided_by"] = decided_by(d)
     return d
+
+
+#: the route by which :func:`answer` (or :func:`floor_answer`) reached the verdict,
+#: ``details.decided_by``, each with what it means (the summary's "Decided by" line)
+DECISION_ROUTES = {
+    "likelihood_tests": "the likelihood-ratio tests against the nominal model on the "
+                        "validation blocks, the NRMSE gate and the ranking below",
+    "slow_line": "the second look for a line slower than the main band (the main band "
+                 "named nothing)",
+    "full_data_range": "the full-data likelihood-ratio test of a travel limit or a curved "
+                       "characteristic (nothing passed on the validation blocks alone)",
+    "line_confined": "the line test: the named fit gains at the residual's line alone, "
+                     "which an external oscillation explains",
+    "op_held_at_limit": "OP held at a limit, read off OP itself (the comparison named "
+                        "nothing)",
+    "setpoint_gain": "the set-point gain test: the loop's gain measured through its "
+                     "set-point moves differs from the model's (the comparison named "
+                     "nothing; the ranking below does not choose it)",
+    "resolution_floor": "the resolution floor: the nominal model already explains PV "
+                        "within it, so what the tests named is held back",
+}
+
+
+def decided_by(d: Diagnosis) -> str:
+    """Which check of :func:`answer` set the verdict (a key of :data:`DECISION_ROUTES`),
+    read from the flags each one leaves: the last that named something, in the order
+    :func:`answer` runs them (``likelihood_tests`` when none did, the verdict ``none``
+    included).
+
+    Examples
+    --------
+    >>> from stictionbench.diagnosis.model import NominalModel
+    >>> d = Diagnosis(True, "valve_characteristic", {}, {}, [], [], [],
+    ...               NominalModel(1.0, 10.0, 1.0), {},
+    ...               tests={"setpoint_gain": {"named": True}})
+    >>> decided_by(d)
+    'setpoint_gain'
+    >>> d.tests = {"setpoint_gain": {"named": False}}
+    >>> decided_by(d)
+    'likelihood_tests'
+    """
+    if d.details.get("resolution_floor"):
+        return "resolution_floor"
+    for key in ("setpoint_gain", "op_held_at_limit", "line_confined", "full_data_range"):
+        if d.tests.get(key, {}).get("named"):
+            return key
+    if (d.details.get("slow_line") or {}).get("named"):
+        return "slow_line"
+    return "likelihood_tests"
 
 
 def after_comparison(pick: str, op_held: bool, gain_flagged: bool) -> str:

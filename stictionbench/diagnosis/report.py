@@ -147,6 +147,29 @@ def _line_lines(d: Diagnosis) -> list[str]:
     return [f"- {d.details['line_confined']}."] if d.details.get("line_confined") else []
 
 
+def _decided_lines(d: Diagnosis) -> list[str]:
+    """Which check set the verdict (``details.decided_by``), and the set-point gain
+    test's own sentence when it named the verdict."""
+    from .diagnose import DECISION_ROUTES
+
+    route = d.details.get("decided_by")
+    if route not in DECISION_ROUTES:
+        return []
+    out = [f"- Decided by {DECISION_ROUTES[route]}."]
+    if route == "setpoint_gain" and d.details.get("setpoint_gain"):
+        out.append(f"- Named by the set-point gain test: {d.details['setpoint_gain']}.")
+    return out
+
+
+def _chosen_mark(d: Diagnosis, physics: str) -> str:
+    """The ranking's "chosen" cell: ``yes`` where the ranking chose the verdict, the
+    deciding check's name where another check did."""
+    if physics != d.missing_physics:
+        return ""
+    route = d.details.get("decided_by", "likelihood_tests")
+    return "yes" if route == "likelihood_tests" else f"yes ({route.replace('_', ' ')})"
+
+
 def _held_lines(d: Diagnosis) -> list[str]:
     """The OP-held-at-a-limit check (:func:`.op_limit.held_at_limit`), when OP was held."""
     t = d.tests.get("op_held_at_limit") or {}
@@ -271,6 +294,7 @@ def summary_markdown(d: Diagnosis) -> str:
                                       if m.kc is not None else "") + ".",
         *[f"- **Warning:** {d.details[k]}." for k in WARNING_KEYS if d.details.get(k)],
         *[f"- Not tested: {k} ({why})." for k, why in d.details.get("not_tested", {}).items()],
+        *_decided_lines(d),
         *_gate_lines(d),
         *_slow_line_lines(d),
         *_range_lines(d),
@@ -286,6 +310,6 @@ def summary_markdown(d: Diagnosis) -> str:
     for r in d.ranking:
         lines.append(f"| {r['physics']} | {r['score']:.1f} | {r['nrmse_validation']:.3f} | "
                      f"{r['improvement']:.0%} | {r['p_value']:.2g} | "
-                     f"{'yes' if r['physics'] == d.missing_physics else ''} |")
+                     f"{_chosen_mark(d, r['physics'])} |")
     lines += ["", "Figures: `replay.png`, `residual.png`, `spectrum.png`, `phase.png`.", ""]
     return "\n".join(lines)
