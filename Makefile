@@ -121,6 +121,7 @@ concealed: venv
 # C's level-1 valves re-made three times slower (slip_jump_loop_speed), and the
 # opt-in slip-jump bootstrap on the sets' level-1 valves (slip_jump_bootstrap_sets), and
 # the alternative decision rules re-decided on the sets' stored evidence (decision_rules),
+# and which check set each verdict and how often it was right (decision_routes),
 # and the healthy loops' slow-line false alarms checked by varying the validation blocks'
 # layout and the load (block_layout), and a verdict voted over three splits against a
 # criterion fixed before its run, on the sets and two fresh ones (split_vote), and the AR
@@ -161,6 +162,7 @@ independent: venv
 			--name independent_set_$$set --jobs 2 || exit $$?; \
 	done
 	$(BIN)/python experiments/decision_rules.py
+	$(BIN)/python experiments/decision_routes.py
 	$(BIN)/python experiments/line_confinement.py --jobs 2
 	$(BIN)/python experiments/setpoint_gain.py --jobs 2
 	$(BIN)/python experiments/snapshot_op.py --loops 48 --jobs 2

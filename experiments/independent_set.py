@@ -80,6 +80,7 @@ def diagnose_one(data: str, name: str, test_highpass_order: int = 2) -> dict:
            "band_dof": res.details.get("band_dof"),
            "op_held": bool(res.tests["op_held_at_limit"]["held"]),
            "gain_named": bool(res.tests.get("setpoint_gain", {}).get("named", False)),
+           "decided_by": res.details.get("decided_by"),
            "warnings": ";".join(k for k in WARNING_KEYS if res.details.get(k)),
            "seconds": time.perf_counter() - t0}
     # every field concealed.decide re-decides from (the second look's line, the OP held
@@ -131,6 +132,7 @@ def report(df: pd.DataFrame, data: str, wall: float) -> str:
                          g.get("gain_named", pd.Series(False, index=g.index)).sum()),
                      "misses named": ", ".join(f"{k} ×{v}" for k, v in miss.items()) or "–"})
     lines += ["## Class by class", "", to_markdown(pd.DataFrame(crow)), ""]
+    lines += _by_route(df)
     why = df.loc[df["miss_reason"] != ""].groupby(["level", "class"])["miss_reason"] \
         .agg(lambda s: ", ".join(f"{k} ×{v}" for k, v in s.value_counts().items()))
     if len(why):
@@ -142,6 +144,24 @@ def report(df: pd.DataFrame, data: str, wall: float) -> str:
     lines += [f"Diagnosis time: median {df['seconds'].median():.2f} s, max "
               f"{df['seconds'].max():.2f} s per recording; wall {wall:.0f} s.", ""]
     return "\n".join(lines)
+
+
+def _by_route(df: pd.DataFrame) -> list[str]:
+    """Per check that set the verdict (``details.decided_by``), the verdicts it gave, how
+    many were right, and how many were healthy loops called physics."""
+    if "decided_by" not in df:
+        return []
+    rows = []
+    for route, g in df.groupby("decided_by"):
+        rows.append({"decided by": route, "verdicts": len(g),
+                     "right": rate_text(int(g["ok"].sum()), len(g)),
+                     "of them physics named": int((g["predicted"] != "none").sum()),
+                     "healthy loops called physics": int(
+                         ((g["class"] == "none") & (g["predicted"] != "none")).sum())})
+    return ["## By the check that set the verdict", "",
+            "`details.decided_by` of each verdict: the likelihood tests' ranking, or the "
+            "check that named physics where it did not.", "",
+            to_markdown(pd.DataFrame(rows)), ""]
 
 
 def _by_record(df: pd.DataFrame) -> list[str]:

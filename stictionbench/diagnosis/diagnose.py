@@ -1100,7 +1100,7 @@ def floor_answer(d: Diagnosis, floor: float = RESOLUTION_FLOOR) -> Diagnosis:
 #: ``details.decided_by``, each with what it means (the summary's "Decided by" line)
 DECISION_ROUTES = {
     "likelihood_tests": "the likelihood-ratio tests against the nominal model on the "
-                        "validation blocks, the NRMSE gate and the ranking below",
+                        "validation blocks, the NRMSE gate and the hypotheses' ranking",
     "slow_line": "the second look for a line slower than the main band (the main band "
                  "named nothing)",
     "full_data_range": "the full-data likelihood-ratio test of a travel limit or a curved "
@@ -1111,7 +1111,7 @@ DECISION_ROUTES = {
                         "nothing)",
     "setpoint_gain": "the set-point gain test: the loop's gain measured through its "
                      "set-point moves differs from the model's (the comparison named "
-                     "nothing; the ranking below does not choose it)",
+                     "nothing; the hypotheses' ranking does not choose it)",
     "resolution_floor": "the resolution floor: the nominal model already explains PV "
                         "within it, so what the tests named is held back",
 }
