@@ -9,9 +9,11 @@ import numpy as np
 
 from ..io import write_text
 from ..reports.figures import new_figure, save_png
-from .diagnose import WARNING_KEYS, Diagnosis
+from .diagnose import WARNING_KEYS
 from .evidence import ALPHA
 from .hypotheses import HYPOTHESES, Context
+from .result import Diagnosis
+from .routes import DECISION_ROUTES
 
 PLAIN = {
     "none": "no physics in the vocabulary improves significantly on the nominal model",
@@ -150,8 +152,6 @@ def _line_lines(d: Diagnosis) -> list[str]:
 def _decided_lines(d: Diagnosis) -> list[str]:
     """Which check set the verdict (``details.decided_by``), and the set-point gain
     test's own sentence when it named the verdict."""
-    from .diagnose import DECISION_ROUTES
-
     route = d.details.get("decided_by")
     if route not in DECISION_ROUTES:
         return []
