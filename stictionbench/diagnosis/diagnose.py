@@ -229,7 +229,7 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
             lp_factor: float = 5.0, pem: bool = True,
             op_range: tuple[float, float] | None = None, n_blocks: int = N_BLOCKS,
             block_layout: str = "interleaved", noise_family: str = "ar",
-            test_noise_family: str | None = None) -> Comparison:
+            test_noise_family: str | None = None, alignment: float = 1.0) -> Comparison:
     """Stage 1: the nominal model (given, or identified FOPDT) replayed from the recorded
     OP, its training/validation split and its output-error fit (see the module
     docstring). ``pem`` (default) asks :func:`fit` to refit every hypothesis by its
@@ -240,7 +240,11 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
     into training and validation blocks (:func:`.blocks.split_blocks`; default five,
     interleaved). ``noise_family`` is that of every noise model the later stages fit
     (:func:`.noise.fit_noise_model`; default ``"ar"``), ``test_noise_family`` that of the
-    likelihood tests' alone (default: ``noise_family``)."""
+    likelihood tests' alone (default: ``noise_family``). ``alignment`` (samples, default
+    1) is the nominal model's alignment range either way, and the dead time's own
+    resolution with it (``reports/concealed/half_sample_alignment.md``)."""
+    if not 0.0 <= alignment <= 1.0:
+        raise ValueError(f"alignment must be within 0 … 1 sample, got {alignment!r}")
     test_noise_family = noise_family if test_noise_family is None else test_noise_family
     for what, fam in (("noise_family", noise_family), ("test_noise_family", test_noise_family)):
         if fam not in NOISE_FAMILIES:
@@ -272,13 +276,15 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
     ctx = Context(t, np.asarray(rec.OP, float), np.asarray(rec.PV, float),
                   Ts, tau, theta, f_hp, f_lp=f_lp, model_given=model.source == "given",
                   op_range=op_range or model.op_range or infer_op_range(rec.OP),
-                  block_times=tuple(float(t[min(e, n - 1)]) for e in split.knot_edges))
+                  block_times=tuple(float(t[min(e, n - 1)]) for e in split.knot_edges),
+                  alignment=float(alignment))
     prob = Problem(ctx, f_hp, split.train, split.val, f_lp)
     # the recording convention (OP stored before or after the controller executed, a
     # controller faster than the historian) moves the apparent dead time by up to a
     # sample: the nominal model is aligned on a quarter-sample grid within ±1 sample,
     # the hypotheses within half a sample of that alignment
-    align = [s * Ts for s in NOMINAL_ALIGNMENT if theta + s * Ts >= 0]
+    align = [s * Ts for s in NOMINAL_ALIGNMENT
+             if abs(s) <= alignment + 1e-9 and theta + s * Ts >= 0]
     nominal = _fit_aligned(prob, Nominal(), align)
     f_wide = (_band_for_residual_line(ctx, nominal, burn, lp_factor)
               if ctx.model_given else None)
@@ -783,7 +789,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              block_layout: str = "interleaved", noise_family: str = "ar",
              test_noise_family: str | None = None, line_test: bool = False,
              intersample: bool = True,
-             resolution_floor: float = RESOLUTION_FLOOR) -> Diagnosis:
+             resolution_floor: float = RESOLUTION_FLOOR,
+             alignment: float = 1.0) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -875,6 +882,12 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         Where the nominal model's validation NRMSE is below it, the answer is ``none``
         (:func:`floor_answer`; default :data:`RESOLUTION_FLOOR`, 0.5 % of PV's spread;
         0 turns it off).
+    alignment : float
+        The nominal model's alignment range in samples either way (default 1: when OP
+        was read, before or after the controller ran or between executions of a faster
+        PI, moves the apparent delay by up to a sample) and the dead time's own resolution
+        with it (:func:`compare`). ``reports/concealed/half_sample_alignment.md`` measures
+        half a sample.
 
     Returns
     -------
@@ -896,7 +909,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         check_request(rec, model, slip_jump_bootstrap, bootstrap_seed)
     kw = dict(hp_factor=hp_factor, lp_factor=lp_factor, pem=pem, op_range=op_range,
               n_blocks=n_blocks, block_layout=block_layout, noise_family=noise_family,
-              test_noise_family=test_noise_family)
+              test_noise_family=test_noise_family, alignment=alignment)
     cmp, between = _compare_intersample(rec, model, kw) if intersample else \
         (compare(rec, model, **kw), None)
     loc = locate(cmp)
@@ -991,6 +1004,7 @@ def _record_settings(d: Diagnosis, cmp: Comparison, fits: dict[str, Fit],
     d.details["noise_family"] = cmp.noise_family
     d.details["test_noise_family"] = cmp.test_noise_family
     d.details["nrmse_gate"] = gate
+    d.details["alignment_samples"] = cmp.ctx.alignment
     d.details["line_test"] = bool(line_test and given)
     if line is not None:
         fitted = fits.get("oscillatory_disturbance")

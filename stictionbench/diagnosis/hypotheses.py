@@ -92,6 +92,9 @@ class Context:
     #: times (s, on ``t``) of the edges of the training and validation blocks, where a
     #: line's drifting amplitude has its knots (:func:`line_knots`); ``None``: unknown
     block_times: tuple[float, ...] | None = None
+    #: the nominal model's alignment range in samples either way (:func:`.diagnose.
+    #: compare`), and so the dead time's own resolution (:meth:`DeadTime.at_bound`)
+    alignment: float = 1.0
 
     @property
     def op_span(self) -> float:
@@ -301,7 +304,7 @@ class DeadTime(Hypothesis):
         # before or after the controller ran, a controller faster than the historian)
         # moves the apparent delay: the nominal model is aligned over that range
         # (:func:`.diagnose.compare`), so a dead time there is bookkeeping, not physics
-        return bool(abs(float(p[0]) - ctx.theta) <= ctx.Ts)
+        return bool(abs(float(p[0]) - ctx.theta) <= ctx.alignment * ctx.Ts)
 
 
 class ValveCharacteristic(Hypothesis):
