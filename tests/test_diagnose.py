@@ -1028,6 +1028,25 @@ def test_dead_time_own_resolution_only_against_a_given_model(stiction_rec):
     assert diagnose(stiction_rec).details["dead_time_own_resolution"] is False
 
 
+def test_alignment_sets_the_nominal_range_and_the_dead_time_resolution(stiction_rec):
+    # a fitted dead time 0.7 samples from the aligned nominal's is bookkeeping within the
+    # default one-sample alignment, physics to be judged within half a sample
+    t = np.arange(200.0)
+    ctx = Context(t, np.zeros(t.size), np.zeros(t.size), 1.0, 10.0, 4.0, 1e-3)
+    dead = HYPOTHESES["dead_time"]
+    assert dead.at_bound(ctx, np.array([4.7]))
+    assert not dead.at_bound(replace(ctx, alignment=0.5), np.array([4.7]))
+    assert dead.at_bound(replace(ctx, alignment=0.5), np.array([4.4]))
+    # the nominal's timing shift stays within the range asked for, which is reported
+    for a in (1.0, 0.5, 0.0):
+        c = compare(stiction_rec, NOM, alignment=a)
+        assert abs(c.nominal.extra["timing_shift_s"]) <= a * stiction_rec.Ts + 1e-9
+        assert c.ctx.alignment == a
+    assert diagnose(stiction_rec, NOM, alignment=0.5).details["alignment_samples"] == 0.5
+    with pytest.raises(ValueError, match="alignment"):
+        compare(stiction_rec, NOM, alignment=1.5)
+
+
 def test_op_range_recognised_for_a_valve_shut_most_of_the_record():
     # an output clamped at 0 for most of the record has its median on the bottom of its
     # range, like a mean-removed OP; it never falls below 0 (a signal centred on 0 does),
