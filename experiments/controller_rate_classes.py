@@ -54,17 +54,19 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fresh_recordings import (  # noqa: E402
+    called_physics,
     drawn_alike,
     paired_change,
     rate_bars,
     remade_verdict,
+    score_text,
     set_cases,
     stored_experiment,
 )
 from slip_jump_pi_rate import MIN_TAU, SETS, SUBSTREAMS, _true_tau  # noqa: E402
 
 from stictionbench.io import atomic_path  # noqa: E402
-from stictionbench.rates import balanced_score, mcnemar_p, rate_text  # noqa: E402
+from stictionbench.rates import mcnemar_p, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
@@ -114,11 +116,8 @@ def scores(pr: pd.DataFrame) -> pd.DataFrame:
         row = {"generator": gen, "level": lv, "loops": len(g) // len(PERIODS)}
         for p in PERIODS:
             x = g[g.period == p]
-            s, lo, hi = balanced_score(x.predicted == x["class"], x["class"])
-            row[f"of 16, PI {p:g} s"] = f"{s:.1f} [{lo:.1f}, {hi:.1f}]"
-            h = x[x["class"] == "none"]
-            row[f"none called physics, PI {p:g} s"] = rate_text(
-                int((h.predicted != "none").sum()), len(h))
+            row[f"of 16, PI {p:g} s"] = score_text(x.predicted, x["class"])
+            row[f"none called physics, PI {p:g} s"] = called_physics(x.predicted, x["class"])
         rows.append(row | paired_change(_right(g), *PERIODS,
                                         "right only at 1 s / only at 0.2 s"))
     return pd.DataFrame(rows)

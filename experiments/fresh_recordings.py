@@ -28,7 +28,7 @@ import holdout_family as hf  # noqa: E402
 
 from stictionbench.diagnosis import NominalModel  # noqa: E402
 from stictionbench.io import atomic_path, write_text  # noqa: E402
-from stictionbench.rates import mcnemar_p, rate_text, wilson  # noqa: E402
+from stictionbench.rates import balanced_text, mcnemar_p, rate_text, wilson  # noqa: E402
 from stictionbench.recording import Recording  # noqa: E402
 
 FAMILIES = (*cf.FAMILIES, hf.FAMILY)
@@ -111,6 +111,19 @@ def stored_or_run(stem: Path, reuse: bool, fn: Callable[..., dict],
         return pd.read_csv(csv)
     df = run(fn, todo(), jobs)
     return df.sort_values(sort_by, kind="stable").reset_index(drop=True)
+
+
+def score_text(predicted: pd.Series, truth: pd.Series, digits: int = 1) -> str:
+    """The score of 16 of verdicts ``predicted`` against classes ``truth``, classes
+    weighted equally, with its 95 % interval (:func:`stictionbench.rates.balanced_text`)."""
+    return balanced_text(predicted == truth, truth, digits=digits)
+
+
+def called_physics(predicted: pd.Series, truth: pd.Series) -> str:
+    """Rate text of the healthy (``none``) recordings among ``truth`` whose verdict
+    ``predicted`` named physics."""
+    healthy = truth == "none"
+    return rate_text(int((healthy & (predicted != "none")).sum()), int(healthy.sum()))
 
 
 def valve_verdicts(g: pd.DataFrame, suffix: str) -> dict[str, str]:

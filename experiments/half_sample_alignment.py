@@ -59,7 +59,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import paired_change, stored_experiment  # noqa: E402
+from fresh_recordings import (  # noqa: E402
+    called_physics,
+    paired_change,
+    score_text,
+    stored_experiment,
+)
 
 from stictionbench.rates import balanced_score, rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -130,12 +135,10 @@ def scores(df: pd.DataFrame) -> pd.DataFrame:
                          "recordings": len(g) // len(ALIGNMENTS)}
             for a in ALIGNMENTS:
                 y = g[g.alignment == a]
-                s, lo, hi = balanced_score(y.predicted == y["class"], y["class"])
-                row[f"of 16, {a:g}"] = f"{s:.2f} [{lo:.1f}, {hi:.1f}]"
+                row[f"of 16, {a:g}"] = score_text(y.predicted, y["class"], digits=2)
             for a in ALIGNMENTS:
-                h = g[(g.alignment == a) & (g["class"] == "none")]
-                row[f"healthy called physics, {a:g}"] = rate_text(
-                    int((h.predicted != "none").sum()), len(h))
+                y = g[g.alignment == a]
+                row[f"healthy called physics, {a:g}"] = called_physics(y.predicted, y["class"])
             for a in ALIGNMENTS:
                 t = g[(g.alignment == a) & (g["class"] == "dead_time")]
                 row[f"dead times named, {a:g}"] = rate_text(

@@ -57,16 +57,18 @@ from concealed import decide  # noqa: E402
 from fresh_recordings import (  # noqa: E402
     CLASSES,
     FAMILIES,
+    called_physics,
     jobs_reuse_args,
     publish,
     recording,
     run,
+    score_text,
 )
 
 from stictionbench.diagnosis.evidence import ALPHA, MIN_IMPROVEMENT  # noqa: E402
 from stictionbench.diagnosis.op_limit import held_at_limit  # noqa: E402
 from stictionbench.op_range import infer_op_range  # noqa: E402
-from stictionbench.rates import balanced_score, rate_text  # noqa: E402
+from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
@@ -147,14 +149,11 @@ def _scores(a: pd.DataFrame) -> pd.DataFrame:
     for (gen, lv), g in a.groupby(["group", "level"]):
         row = {"generator": gen, "level": lv, "recordings": len(g)}
         for col, label in (("stored", "shipped"), ("candidate", "candidate")):
-            s, lo, hi = balanced_score(g[col] == g["class"], g["class"])
-            row[f"of 16, {label}"] = f"{s:.1f} [{lo:.1f}, {hi:.1f}]"
+            row[f"of 16, {label}"] = score_text(g[col], g["class"])
             sat = g[g["class"] == "saturation"]
             row[f"saturation named, {label}"] = rate_text(
                 int((sat[col] == "saturation").sum()), len(sat))
-            h = g[g["class"] == "none"]
-            row[f"none called physics, {label}"] = rate_text(int((h[col] != "none").sum()),
-                                                             len(h))
+            row[f"none called physics, {label}"] = called_physics(g[col], g["class"])
         rows.append(row)
     return pd.DataFrame(rows)
 

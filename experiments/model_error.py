@@ -55,15 +55,17 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
 from fresh_recordings import (  # noqa: E402
+    called_physics,
     paired_change,
     rate_bars,
     remade_verdict,
+    score_text,
     set_cases,
     stored_experiment,
 )
 
 from stictionbench.io import atomic_path  # noqa: E402
-from stictionbench.rates import balanced_score, rate_text  # noqa: E402
+from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
 
 OUT = ROOT / "reports" / "concealed"
@@ -115,12 +117,10 @@ def scores(df: pd.DataFrame) -> pd.DataFrame:
         row: dict = {"level": lv, "loops": len(g) // len(VARIANTS)}
         for v in VARIANTS:
             x = g[g.variant == v]
-            s, lo, hi = balanced_score(x.predicted == x["class"], x["class"])
-            row[f"of 16, {v}"] = f"{s:.1f} [{lo:.1f}, {hi:.1f}]"
+            row[f"of 16, {v}"] = score_text(x.predicted, x["class"])
         for v in VARIANTS:
-            h = g[(g.variant == v) & (g["class"] == "none")]
-            row[f"none called physics, {v}"] = rate_text(int((h.predicted != "none").sum()),
-                                                         len(h))
+            x = g[g.variant == v]
+            row[f"none called physics, {v}"] = called_physics(x.predicted, x["class"])
         w = _right(g)
         for v in VARIANTS[1:]:
             row |= paired_change(w, "as_drawn", v, f"right only {v} / only as_drawn")

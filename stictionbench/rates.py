@@ -90,10 +90,12 @@ def balanced_score(correct: pd.Series, stratum: pd.Series, total: int = 16,
     return score, max(0.0, score - half), min(float(total), score + half)
 
 
-def balanced_text(correct: pd.Series, stratum: pd.Series, total: int = 16) -> str:
-    """``"12.0 [11.3, 12.7]"``: :func:`balanced_score` as text."""
+def balanced_text(correct: pd.Series, stratum: pd.Series, total: int = 16,
+                  digits: int = 1) -> str:
+    """``"12.0 [11.3, 12.7]"``: :func:`balanced_score` as text, the score to ``digits``
+    decimals (the interval to one)."""
     s, lo, hi = balanced_score(correct, stratum, total)
-    return f"{s:.1f} [{lo:.1f}, {hi:.1f}]"
+    return f"{s:.{digits}f} [{lo:.1f}, {hi:.1f}]"
 
 
 def fisher_p(k1: int, n1: int, k2: int, n2: int) -> float:
