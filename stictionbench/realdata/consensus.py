@@ -6,6 +6,12 @@ the methods that decided (``threshold``) and how many must have decided
 (``min_votes``); fewer decided methods give ``inconclusive``. :func:`fit` chooses them by
 exhaustive search on the training loops (balanced accuracy by loop; ties go to more
 methods, a threshold nearer one half, fewer required votes — the least tuned choice).
+With ``rule="one_se"`` it applies the one-standard-error rule instead (Breiman et al.,
+*Classification and Regression Trees*, 1984, §3.4.3; Hastie, Tibshirani & Friedman, *The
+Elements of Statistical Learning*, 2nd ed., §7.10): of the settings whose training
+balanced accuracy is within one standard error of the best, the one nearest the untrained
+vote (:data:`PRIOR`), so that a handful of labelled loops moves the vote only as far as
+their evidence reaches.
 :func:`cross_dataset` trains on each dataset and scores on the other; :func:`lolo`
 leaves one loop out within a dataset.
 """
@@ -26,6 +32,8 @@ from .panel import PUBLISHED
 
 THRESHOLDS = (1 / 3, 0.5, 2 / 3, 1.0)
 MIN_VOTES = (1, 2)
+#: the ways :func:`fit` may choose: the best training score, or the one-standard-error rule
+FIT_RULES = ("best", "one_se")
 
 
 @dataclass(frozen=True)
@@ -95,6 +103,39 @@ def _tie_key(c: Consensus) -> tuple[float, float, int]:
     return (-len(c.methods), abs(c.threshold - 0.5), c.min_votes)
 
 
+def prior_distance(c: Consensus, candidates: tuple[str, ...]) -> int:
+    """How far ``c`` is from the untrained vote of all ``candidates`` (share ≥ 0.5, one
+    vote): the methods it leaves out, plus one for another threshold, plus one for
+    another vote count.
+
+    Examples
+    --------
+    >>> prior_distance(Consensus(("a", "b"), 2 / 3, 1), ("a", "b", "c"))
+    2
+    """
+    return (len(set(candidates) - set(c.methods)) + int(abs(c.threshold - 0.5) > 1e-12)
+            + int(c.min_votes != 1))
+
+
+def ba_standard_error(labels: np.ndarray, flagged: np.ndarray) -> float:
+    """Standard error of a balanced accuracy: half the root of the two rates' binomial
+    variances, each rate Laplace-smoothed (``(k + 1) / (n + 2)``) so that a perfect score
+    on four loops is not read as certain.
+
+    Examples
+    --------
+    >>> round(ba_standard_error(np.array([1, 1, 0, 0]), np.array([True, True, False, False])), 3)
+    0.217
+    """
+    var = 0.0
+    for cls, hit in ((1, flagged), (0, ~flagged)):
+        n = int(np.sum(labels == cls))
+        if n:
+            p = (float(np.sum(hit[labels == cls])) + 1.0) / (n + 2.0)
+            var += p * (1.0 - p) / n
+    return 0.5 * float(np.sqrt(var))
+
+
 def _votes(loops: pd.DataFrame, candidates: tuple[str, ...]) -> np.ndarray:
     """+1 stiction, −1 no stiction, 0 otherwise: loops × candidates."""
     v = loops[list(candidates)].to_numpy(dtype=object)
@@ -108,12 +149,24 @@ def _ba(labels: np.ndarray, flagged: np.ndarray) -> float:
     return float(np.mean(rec)) if rec else float("nan")
 
 
-def fit(loops: pd.DataFrame, candidates: tuple[str, ...] = PUBLISHED) -> Consensus:
-    """The consensus with the best balanced accuracy on ``loops`` (labelled rows),
-    searched exhaustively over method subsets, thresholds and vote counts."""
+def fit(loops: pd.DataFrame, candidates: tuple[str, ...] = PUBLISHED,
+        rule: str = "best") -> Consensus:
+    """The consensus chosen on ``loops`` (labelled rows), searched exhaustively over
+    method subsets, thresholds and vote counts.
+
+    ``rule="best"``: the best balanced accuracy (ties to the least tuned setting).
+    ``rule="one_se"``: the one-standard-error rule (module docstring): among the settings
+    within one standard error (:func:`ba_standard_error` of the best) of the best
+    balanced accuracy, the one of least :func:`prior_distance`, then the higher score.
+    """
+    if rule not in FIT_RULES:
+        raise InputError(f"consensus fit rule must be one of {', '.join(FIT_RULES)}; "
+                         f"got {rule!r}")
     loops = loops[loops["label"].notna()]
     votes = _votes(loops, candidates)
     labels = (loops["label"] == "stiction").to_numpy().astype(int)
+    if rule == "one_se":
+        return _fit_one_se(votes, labels, candidates)
     best: tuple[float, tuple, Consensus] | None = None
     for k in range(1, len(candidates) + 1):
         for idx in itertools.combinations(range(len(candidates)), k):
@@ -135,6 +188,34 @@ def fit(loops: pd.DataFrame, candidates: tuple[str, ...] = PUBLISHED) -> Consens
     return best[2]
 
 
+def _settings(votes: np.ndarray, candidates: tuple[str, ...]):
+    """Every setting of the search with the loops it flags."""
+    for k in range(1, len(candidates) + 1):
+        for idx in itertools.combinations(range(len(candidates)), k):
+            sub = votes[:, list(idx)]
+            yes = (sub == 1).sum(axis=1)
+            dec = (sub != 0).sum(axis=1)
+            share = np.divide(yes, dec, out=np.zeros(len(yes)), where=dec > 0)
+            for th in THRESHOLDS:
+                for mv in MIN_VOTES:
+                    if mv <= k:
+                        yield (Consensus(tuple(candidates[i] for i in idx), th, mv),
+                               (dec >= mv) & (share >= th - 1e-12))
+
+
+def _fit_one_se(votes: np.ndarray, labels: np.ndarray,
+                candidates: tuple[str, ...]) -> Consensus:
+    scored = [(c, _ba(labels, f), f) for c, f in _settings(votes, candidates)]
+    finite = [s for s in scored if np.isfinite(s[1])]
+    if not finite:
+        return Consensus(candidates)
+    top = max(finite, key=lambda s: s[1])
+    floor = top[1] - ba_standard_error(labels, top[2]) - 1e-12
+    near = [s for s in finite if s[1] >= floor]
+    return min(near, key=lambda s: (prior_distance(s[0], candidates), -s[1],
+                                    _tie_key(s[0])))[0]
+
+
 def score(c: Consensus, loops: pd.DataFrame) -> dict[str, Any]:
     """Balanced accuracy, detections, false alarms and inconclusive loops of ``c``."""
     v = c.apply(loops)
@@ -147,29 +228,30 @@ def score(c: Consensus, loops: pd.DataFrame) -> dict[str, Any]:
             "inconclusive": int((v == "inconclusive").sum())}
 
 
-def lolo(loops: pd.DataFrame, candidates: tuple[str, ...] = PUBLISHED) -> pd.Series:
+def lolo(loops: pd.DataFrame, candidates: tuple[str, ...] = PUBLISHED,
+         rule: str = "best") -> pd.Series:
     """Leave-one-loop-out verdicts: each loop judged by a consensus fitted without it."""
     out = {}
     for i in loops.index:
-        c = fit(loops.drop(index=i), candidates)
+        c = fit(loops.drop(index=i), candidates, rule)
         out[i] = c.decide(loops.loc[i])[0]
     return pd.Series(out)
 
 
 def cross_dataset(sets: dict[str, pd.DataFrame],
-                  candidates: tuple[str, ...] = PUBLISHED) -> pd.DataFrame:
+                  candidates: tuple[str, ...] = PUBLISHED, rule: str = "best") -> pd.DataFrame:
     """Train on each dataset, score on every dataset (the diagonal is in-sample), plus
     leave-one-loop-out within each and the untrained majority of all methods."""
     rows = []
     for train, tl in sets.items():
-        c = fit(tl, candidates)
+        c = fit(tl, candidates, rule)
         for test, sl in sets.items():
             rows.append({"trained_on": train, "scored_on": test,
                          "out_of_sample": train != test, **score(c, sl),
                          "consensus": f"{'+'.join(c.methods)}, share ≥ {c.threshold:.2f}, "
                                       f"≥ {c.min_votes} vote(s)"})
     for name, sl in sets.items():
-        v = lolo(sl, candidates)
+        v = lolo(sl, candidates, rule)
         lab = sl["label"]
         rows.append({"trained_on": f"{name} minus the held-out loop", "scored_on": name,
                      "out_of_sample": True,
