@@ -63,6 +63,7 @@ real: venv
 	$(BIN)/python experiments/simulated_loops.py
 	$(BIN)/python experiments/flow_loops.py
 	$(BIN)/python experiments/level_loops.py
+	$(BIN)/python experiments/consensus_one_se.py
 	$(BIN)/python experiments/refinery_rate_loops.py
 	$(BIN)/python experiments/yamashita_evidence.py --data $(DATA)
 	$(BIN)/python experiments/compression.py --data $(DATA)

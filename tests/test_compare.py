@@ -175,3 +175,29 @@ def test_choudhury_gaussian_answer_is_not_evidence_against_a_sticky_valve():
     assert not bic.diagnostics["non_gaussian"]
     call = METHODS["choudhury"](rec, "F")
     assert call.verdict == "inconclusive" and "no power" in call.reason, call
+
+
+def test_one_se_rule_keeps_the_untrained_vote_on_weak_evidence():
+    # two sticky loops: "lucky" is right on all six loops, but the untrained vote of all
+    # three (share >= 0.5) is right on five: within one standard error, so it stays
+    from stictionbench.errors import InputError
+    from stictionbench.realdata.consensus import prior_distance
+
+    labels = ["stiction"] * 2 + ["no_stiction"] * 4
+    lucky = ["stiction"] * 2 + ["no_stiction"] * 4
+    other = ["stiction", "stiction", "stiction", "no_stiction", "no_stiction", "no_stiction"]
+    mute = ["inconclusive"] * 6
+    loops = _loops({"lucky": lucky, "other": other, "mute": mute}, labels)
+    cands = ("lucky", "other", "mute")
+    best = fit(loops, cands, rule="best")
+    one = fit(loops, cands, rule="one_se")
+    assert balanced_accuracy(loops["label"], best.apply(loops)) == 1.0
+    assert prior_distance(one, cands) < prior_distance(best, cands)
+    assert one == Consensus(cands)
+    # strong evidence moves it: with twenty loops the same pattern drops the noisy vote
+    many = pd.concat([loops] * 10, ignore_index=True)
+    many["other"] = (["stiction", "stiction"] + ["stiction"] * 4) * 10
+    moved = fit(many, cands, rule="one_se")
+    assert "other" not in moved.methods or moved.threshold > 0.5
+    with pytest.raises(InputError, match="fit rule"):
+        fit(loops, cands, rule="tuned")

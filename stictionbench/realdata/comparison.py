@@ -113,7 +113,11 @@ def report_md(sets, rates, cross, default, methods) -> str:
               "A vote of the published methods; which methods vote, the share of "
               "stiction votes needed and the number of deciding methods needed are fitted "
               "on one dataset (`stictionbench/realdata/consensus.py`) and scored on the "
-              "other. Rows with `out_of_sample = False` are in-sample.", "",
+              "other, by the one-standard-error rule: of the settings within one standard "
+              "error of the best training score, the one nearest the untrained majority of "
+              "all published methods ([consensus_one_se.md](consensus_one_se.md) compares "
+              "it with the best-score fit). Rows with `out_of_sample = False` are "
+              "in-sample.", "",
               to_markdown(cross), "",
               f"Shipped default (trained on all datasets here, used by `batch`): "
               f"`{default.to_dict()}`.", ""]
@@ -179,7 +183,8 @@ def run_compare(dirs: list[str], out: str, consensus_out: str | None, jobs: int)
             Path(tmp).write_text(
                 "# The combined stiction verdict of `stictionbench batch`: a vote of the\n"
                 "# published detectors, trained on " + ", ".join(sets) + " by `make real`\n"
-                "# (stictionbench compare); see reports/real/comparison.md.\n"
+                "# (stictionbench compare; the one-standard-error rule of consensus.fit);\n"
+                "# see reports/real/comparison.md.\n"
                 + yaml.safe_dump(default.to_dict(), sort_keys=True), encoding="utf-8")
     for row in cross.itertuples():
         print(f"consensus trained on {row.trained_on}, scored on {row.scored_on}: balanced "
