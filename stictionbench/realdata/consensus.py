@@ -172,22 +172,11 @@ def fit(loops: pd.DataFrame, candidates: tuple[str, ...] = PUBLISHED,
     if rule == "one_se":
         return _fit_one_se(votes, labels, candidates)
     best: tuple[float, tuple, Consensus] | None = None
-    for k in range(1, len(candidates) + 1):
-        for idx in itertools.combinations(range(len(candidates)), k):
-            sub = votes[:, list(idx)]
-            yes = (sub == 1).sum(axis=1)
-            dec = (sub != 0).sum(axis=1)
-            share = np.divide(yes, dec, out=np.zeros(len(yes)), where=dec > 0)
-            for th in THRESHOLDS:
-                for mv in MIN_VOTES:
-                    if mv > k:
-                        continue
-                    flagged = (dec >= mv) & (share >= th - 1e-12)
-                    c = Consensus(tuple(candidates[i] for i in idx), th, mv)
-                    ba = _ba(labels, flagged)
-                    key = (-ba if np.isfinite(ba) else 1.0, _tie_key(c))
-                    if best is None or key < (best[0], best[1]):
-                        best = (key[0], key[1], c)
+    for c, flagged in _settings(votes, candidates):
+        ba = _ba(labels, flagged)
+        key = (-ba if np.isfinite(ba) else 1.0, _tie_key(c))
+        if best is None or key < (best[0], best[1]):
+            best = (key[0], key[1], c)
     assert best is not None
     return best[2]
 
