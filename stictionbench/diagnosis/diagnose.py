@@ -50,6 +50,7 @@ from ..recording import Recording
 from .blocks import N_BLOCKS, split_blocks
 from .cycle import CycleCheck, check_cycle
 from .detectability import minimum_detectable
+from .detection import detect, name_detected
 from .evidence import (
     ALPHA,
     MIN_IMPROVEMENT,
@@ -790,7 +791,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              test_noise_family: str | None = None, line_test: bool = False,
              intersample: bool = True,
              resolution_floor: float = RESOLUTION_FLOOR,
-             alignment: float = 1.0) -> Diagnosis:
+             alignment: float = 1.0, detection: bool = False) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -888,6 +889,12 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         PI, moves the apparent delay by up to a sample) and the dead time's own resolution
         with it (:func:`compare`). ``reports/concealed/half_sample_alignment.md`` measures
         half a sample.
+    detection : bool
+        Without a model, also run the published detectors of ``batch``'s consensus on
+        the recording (:func:`.detection.detect`, ``tests.detection``) and name
+        ``stiction`` where they find a sticky valve and the stiction fit's slip jump has
+        an interval that excludes 0 (:func:`.detection.name_detected`: detection, then
+        quantification, Jelali & Huang 2010). Ignored with a model.
 
     Returns
     -------
@@ -935,6 +942,9 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     _record_settings(d, cmp, fits, line, alpha=alpha, dof=dof, gate=gate,
                      linear_input_gate=linear_input_gate, highpass_order=test_highpass_order,
                      line_test=line_test, detectable=detectable, between=between)
+    if detection and not cmp.ctx.model_given:
+        d = name_detected(d, detect(rec))
+        d.details["decided_by"] = decided_by(d)
     d = floor_answer(d, resolution_floor)
     d.details["seconds"] = time.perf_counter() - t0
     return d

@@ -102,6 +102,9 @@ DECISION_ROUTES = {
     "setpoint_gain": "the set-point gain test: the loop's gain measured through its "
                      "set-point moves differs from the model's (the comparison named "
                      "nothing; the hypotheses' ranking does not choose it)",
+    "detection": "detection, then quantification (no model given): the published "
+                 "detectors' combined verdict found a sticky valve and the stiction fit's "
+                 "slip jump has an interval that excludes 0",
     "resolution_floor": "the resolution floor: the nominal model already explains PV "
                         "within it, so what the tests named is held back",
 }
@@ -127,6 +130,8 @@ def decided_by(d: Diagnosis) -> str:
     """
     if d.details.get("resolution_floor"):
         return "resolution_floor"
+    if d.tests.get("detection", {}).get("named"):
+        return "detection"
     for key in ("setpoint_gain", "op_held_at_limit", "line_confined", "full_data_range"):
         if d.tests.get(key, {}).get("named"):
             return key
