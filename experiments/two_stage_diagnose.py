@@ -319,9 +319,11 @@ def main(argv: list[str] | None = None) -> int:
         from joblib import Parallel, delayed
         from tqdm import tqdm
 
+        import two_stage_diagnose as this  # by reference: the workers import the module
+
         js = jobs()
         rows = list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator")(
-            delayed(run)(j) for j in js), total=len(js), desc="two-stage", unit="rec"))
+            delayed(this.run)(j) for j in js), total=len(js), desc="two-stage", unit="rec"))
         df = pd.DataFrame(rows)
         write_text(csv, df.to_csv(index=False))
     write_text(OUT / "two_stage_diagnose.md", report(df))
