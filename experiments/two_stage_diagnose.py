@@ -164,9 +164,16 @@ def recording(job: dict):
 def run(job: dict) -> dict:
     """Diagnose ``job``'s recording without a model, the route on; the answer without it."""
     from stictionbench.diagnosis import diagnose
+    from stictionbench.errors import InputError
 
     rec, truth = recording(job)
-    d = diagnose(rec, detection=True)
+    try:
+        d = diagnose(rec, detection=True)
+    except InputError as exc:  # data that cannot be diagnosed (a dead PV): counted so
+        return {**job, "truth": truth, "with_route": "unusable",
+                "without_route": "unusable", "renamed": False, "detected": "unusable",
+                "detect_reason": str(exc).split(": ")[-1], "loop_type": "",
+                "J_interval": "[]", "J_excludes_0": False, "seconds": None}
     det = d.tests["detection"]
     return {**job, "truth": truth, "with_route": d.missing_physics,
             "without_route": det.get("named_before", d.missing_physics),
@@ -316,10 +323,9 @@ def main(argv: list[str] | None = None) -> int:
     if a.report_only:
         df = pd.read_csv(csv)
     else:
+        import two_stage_diagnose as this  # by reference: the workers import the module
         from joblib import Parallel, delayed
         from tqdm import tqdm
-
-        import two_stage_diagnose as this  # by reference: the workers import the module
 
         js = jobs()
         rows = list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator")(
