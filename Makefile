@@ -142,8 +142,9 @@ concealed: venv
 # generator C's one-sample dead-time changes made a second longer (dead_time_one_sample),
 # and generator C's classes re-made with the true process equal to the model (model_error),
 # and the nominal model aligned within half a sample (half_sample_alignment), its cost
-# checked against the PI's period (half_sample_convention; about 525 minutes on 2 cores in
-# all)
+# checked against the PI's period (half_sample_convention), and detection-then-
+# quantification in the model-free diagnose (two_stage_diagnose; about 535 minutes on 2
+# cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -205,6 +206,7 @@ independent: venv
 	$(BIN)/python experiments/half_sample_convention.py --jobs 2
 	$(BIN)/python experiments/dead_time_one_sample.py --jobs 2
 	$(BIN)/python experiments/model_error.py --jobs 2
+	$(BIN)/python experiments/two_stage_diagnose.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

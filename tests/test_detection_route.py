@@ -84,3 +84,28 @@ def test_model_free_diagnose_carries_the_detection_and_a_model_turns_it_off():
     assert off.missing_physics == t.get("named_before", d.missing_physics)
     given = diagnose(rec, NominalModel(1.0, 5.0, 1.0), detection=True)
     assert "detection" not in given.tests
+
+
+def test_cli_detection_is_opt_in_and_lands_in_the_json(tmp_path):
+    import subprocess
+    import sys
+
+    import pandas as pd
+
+    rec = _sticky_flow_loop()
+    csv = tmp_path / "FIC101.csv"
+    pd.DataFrame({"t": rec.t, "SP": rec.SP, "PV": rec.PV, "OP": rec.OP}).to_csv(csv,
+                                                                             index=False)
+    outs = {}
+    for flag in ([], ["--detection"]):
+        out = tmp_path / f"out{len(flag)}.json"
+        r = subprocess.run([sys.executable, "-m", "stictionbench.cli", "diagnose", str(csv),
+                            "--json", str(out), *flag], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        outs[bool(flag)] = json.loads(out.read_text())
+    assert "detection" not in outs[False]["tests"]
+    det = outs[True]["tests"]["detection"]
+    assert set(det["methods"]) == set(det["consensus"]["methods"])
+    assert det["verdict"] in ("stiction", "no_stiction", "inconclusive")
+    assert (outs[True]["missing_physics"] == "stiction") if det["named"] else \
+        outs[True]["missing_physics"] == outs[False]["missing_physics"]

@@ -52,7 +52,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                  linear_input_gate=args.linear_input_gate is not False,
                  test_highpass_order=args.test_highpass_order,
                  test_noise_family=args.test_noise_family, line_test=args.line_test,
-                 intersample=args.intersample, resolution_floor=floor)
+                 intersample=args.intersample, resolution_floor=floor,
+                 detection=args.detection)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
@@ -142,4 +143,11 @@ def add_command(sub) -> None:
                         "this (default 0.005, diagnose.RESOLUTION_FLOOR: the model explains "
                         "PV to within 0.5 %% of its spread; 0 turns it off; "
                         "details.resolution_floor; reports/concealed/resolution_floor.md)")
+    p.add_argument("--detection", action="store_true",
+                   help="without --model, also run the published detectors of batch's "
+                        "consensus and name stiction where they find a sticky valve and "
+                        "the stiction fit's slip jump J has an interval excluding 0 "
+                        "(tests.detection; off by default: it names more ISDB stiction "
+                        "loops but renames healthy and other simulated loops too, "
+                        "reports/diagnose/two_stage_diagnose.md)")
     p.set_defaults(func=cmd_diagnose)
