@@ -96,9 +96,14 @@ def labelled_loops(prog: str, doc: str, out: Path, argv=None
     if not data.is_dir():
         print(f"{prog}: {data} not present; nothing to do", file=sys.stderr)
         return None
+    return labelled(data), Path(a.out)
+
+
+def labelled(data: Path) -> dict[str, Recording]:
+    """The labelled loops of the ISDB folder ``data``, block-averaged to the length
+    ``diagnose`` is run on."""
     recs, _ = load_csv_dir(data, warn=False)
-    return ({name: decimate_mean(rec) for name, rec in recs.items() if rec.meta.get("label")},
-            Path(a.out))
+    return {name: decimate_mean(rec) for name, rec in recs.items() if rec.meta.get("label")}
 
 
 def main(argv=None) -> int:
