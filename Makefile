@@ -143,7 +143,8 @@ concealed: venv
 # and generator C's classes re-made with the true process equal to the model (model_error),
 # and the nominal model aligned within half a sample (half_sample_alignment), its cost
 # checked against the PI's period (half_sample_convention), and detection-then-
-# quantification in the model-free diagnose (two_stage_diagnose; about 535 minutes on 2
+# quantification in the model-free diagnose (two_stage_diagnose), its detection without the
+# Hammerstein detector on fresh recordings (detection_independent; about 555 minutes on 2
 # cores in all)
 BLIND := .cache/blindgen
 independent: venv
@@ -207,6 +208,7 @@ independent: venv
 	$(BIN)/python experiments/dead_time_one_sample.py --jobs 2
 	$(BIN)/python experiments/model_error.py --jobs 2
 	$(BIN)/python experiments/two_stage_diagnose.py --jobs 2
+	$(BIN)/python experiments/detection_independent.py --write-sets --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

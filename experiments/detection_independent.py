@@ -183,9 +183,11 @@ def run(job: dict) -> dict:
     """One diagnosis (route off, floor deferred), one run of the detectors, and each
     variant's answer in ``diagnose``'s order (route, then resolution floor)."""
     from stictionbench.diagnosis import diagnose
-    from stictionbench.diagnosis.detection import detect, name_detected
+    from stictionbench.diagnosis.detection import name_detected
     from stictionbench.diagnosis.routes import RESOLUTION_FLOOR, decided_by, floor_answer
     from stictionbench.errors import InputError
+    from stictionbench.realdata.consensus import Consensus
+    from stictionbench.realdata.panel import window_calls
 
     rec, truth = recording(job)
     row = {**job, "truth": truth}
@@ -194,7 +196,13 @@ def run(job: dict) -> dict:
     except InputError as exc:  # data that cannot be diagnosed (a dead PV)
         return {**row, **{v: "unusable" for v in VARIANTS},
                 "reason": str(exc).split(": ")[-1]}
-    det = detect(rec)
+    # every method of the shipped consensus, the Hammerstein detector included (the
+    # package's detect() leaves it out since this experiment's decision)
+    full = Consensus.load()
+    calls = window_calls(rec, str(rec.meta.get("name", "")), full.methods)
+    det = {"loop_type": calls["loop_type"],
+           "methods": {m: {"verdict": calls[m].verdict, "reason": calls[m].reason}
+                       for m in full.methods}}
     votes = {m: v["verdict"] for m, v in det["methods"].items()}
     row["loop_type"] = det["loop_type"]
     row["votes"] = ";".join(f"{m}={v}" for m, v in votes.items())
@@ -376,7 +384,37 @@ def report(df: pd.DataFrame) -> str:
         lines += ["## Simulated flow loops, loop type F (out of sample)", "",
                   to_markdown(pd.DataFrame(ft)), ""]
     lines += verdicts(facts(df))
+    lines += reading(df)
     return "\n".join(lines) + "\n"
+
+
+def stiction_voters(votes: str) -> list[str]:
+    """The methods that said stiction in a stored ``votes`` cell."""
+    return [kv.split("=")[0] for kv in str(votes).split(";") if kv.endswith("=stiction")]
+
+
+def reading(df: pd.DataFrame) -> list[str]:
+    """What the variant changed where it cost, read off the stored votes (written after
+    the run; no prediction)."""
+    out = ["", "## Reading (added after the run, no prediction)", ""]
+    ref = df[(df["source"] == "refinery") & (df["truth"] == "no_stiction")
+             & renamed(df, "no_hammerstein") & ~renamed(df, "shipped")]
+    for _, r in ref.iterrows():
+        out.append(f"- Refinery window {r['name']} (healthy) is named stiction by "
+                   f"*no_hammerstein* and not by *shipped*: its votes {r['votes']}. Without "
+                   "the Hammerstein detector's `no_stiction` the stiction share reaches the "
+                   "threshold: that detector also holds false alarms back on real loops.")
+    sim = df[df["source"].isin([*SIMULATED, "flow"])
+             & ~df["truth"].isin(["stiction", "deadband"]) & renamed(df, "no_hammerstein")]
+    if len(sim):
+        count: dict[str, int] = {}
+        for v in sim["votes"]:
+            for m in stiction_voters(v):
+                count[m] = count.get(m, 0) + 1
+        top = ", ".join(f"{m} {n}" for m, n in sorted(count.items(), key=lambda kv: -kv[1]))
+        out.append(f"- The {len(sim)} recordings without a sticky valve that *no_hammerstein* "
+                   f"renames (sources 3–5): stiction votes by method: {top}.")
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:

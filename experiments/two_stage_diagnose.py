@@ -50,6 +50,11 @@ of 10 with none of the four others; on sources 3 and 4 pooled, recordings named
 correctly not fewer with the route than without, and ``none`` recordings called physics
 up by at most 2; on the refinery, no healthy loop newly named ``stiction``.
 
+Since ``experiments/detection_independent.py``'s decision the route's detection stage
+leaves out the Hammerstein detector (:data:`stictionbench.diagnosis.detection.QUANTIFIER_KIN`):
+the stored report measured the route with the whole consensus, and a re-run measures
+the route as it now stands.
+
 Run: ``.venv/bin/python experiments/two_stage_diagnose.py [--jobs 2]``; writes
 ``reports/diagnose/two_stage_diagnose.{md,csv}``.
 """

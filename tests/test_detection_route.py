@@ -71,6 +71,23 @@ def test_detect_reports_every_consensus_method_and_the_loop_type():
                for v in det["methods"].values())
 
 
+def test_detection_leaves_out_the_quantifications_kin_and_keeps_the_vote_rule(tmp_path):
+    from stictionbench.diagnosis.detection import QUANTIFIER_KIN
+    from stictionbench.realdata.consensus import Consensus
+
+    shipped = Consensus.load()
+    det = detect(_sticky_flow_loop())
+    assert not set(QUANTIFIER_KIN) & set(det["consensus"]["methods"])
+    assert set(det["consensus"]["methods"]) == set(shipped.methods) - set(QUANTIFIER_KIN)
+    assert det["consensus"]["threshold"] == shipped.threshold
+    assert det["consensus"]["min_votes"] == shipped.min_votes
+    only = tmp_path / "only.yaml"
+    only.write_text("methods: [hammerstein]\nthreshold: 0.5\nmin_votes: 1\n")
+    det = detect(_sticky_flow_loop(), str(only))
+    assert det["verdict"] == "inconclusive" and det["methods"] == {}
+    assert "quantification" in det["reason"]
+
+
 def test_model_free_diagnose_carries_the_detection_and_a_model_turns_it_off():
     rec = _sticky_flow_loop()
     d = diagnose(rec, detection=True)

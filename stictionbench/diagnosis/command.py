@@ -145,9 +145,10 @@ def add_command(sub) -> None:
                         "details.resolution_floor; reports/concealed/resolution_floor.md)")
     p.add_argument("--detection", action="store_true",
                    help="without --model, also run the published detectors of batch's "
-                        "consensus and name stiction where they find a sticky valve and "
-                        "the stiction fit's slip jump J has an interval excluding 0 "
+                        "consensus (less the Hammerstein detector, the fit's own kind) "
+                        "and name stiction where they find a sticky valve and the "
+                        "stiction fit's slip jump J has an interval excluding 0 "
                         "(tests.detection; off by default: it names more ISDB stiction "
                         "loops but renames healthy and other simulated loops too, "
-                        "reports/diagnose/two_stage_diagnose.md)")
+                        "reports/diagnose/detection_independent.md)")
     p.set_defaults(func=cmd_diagnose)

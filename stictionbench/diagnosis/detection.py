@@ -15,9 +15,18 @@ on the recording; :func:`name_detected` names ``stiction`` where they find it an
 stiction fit's slip jump has an interval that excludes 0 (the nested rule of the dead
 band: a sticky valve whose ``J`` may be 0 is not shown to be stiction).
 
-``experiments/two_stage_diagnose.py`` measured the route before it was adopted (its
-design, predictions and criterion are in its docstring; the report is
-``reports/diagnose/two_stage_diagnose.md``).
+The detection stage leaves out the detectors in :data:`QUANTIFIER_KIN`: the panel's
+Hammerstein detector fits the same kind of model (a stick-slip valve in series with a
+low-order process) to the same PV and OP as the quantification, so where its vote
+decides the two stages test one hypothesis twice rather than give two pieces of
+evidence. The consensus's other methods, its threshold and its minimum number of votes
+are the shipped ones; ``batch`` keeps the whole consensus.
+
+Measured before it was shipped: ``experiments/two_stage_diagnose.py`` (the route with
+the whole consensus; ``reports/diagnose/two_stage_diagnose.md``) and
+``experiments/detection_independent.py`` (the Hammerstein detector left out, on
+recordings the first never saw; ``reports/diagnose/detection_independent.md``). Each has
+its design, predictions and criterion in its docstring. The route stays off by default.
 """
 
 from __future__ import annotations
@@ -27,7 +36,12 @@ from typing import Any
 from ..recording import Recording
 from .result import Diagnosis
 
-__all__ = ["detect", "name_detected"]
+__all__ = ["QUANTIFIER_KIN", "detect", "name_detected"]
+
+#: detectors left out of the detection stage: they fit the quantification's own model
+#: kind, so their vote is not independent of the slip-jump evidence that follows
+#: (``reports/diagnose/detection_independent.md``)
+QUANTIFIER_KIN = ("hammerstein",)
 
 
 def detect(rec: Recording, consensus_path: str | None = None) -> dict[str, Any]:
@@ -39,7 +53,9 @@ def detect(rec: Recording, consensus_path: str | None = None) -> dict[str, Any]:
         The recording the diagnosis runs on (the loop type is read from its labels or
         its name's controller tag, :func:`~stictionbench.realdata.panel.loop_type`).
     consensus_path : str, optional
-        A consensus YAML (default: the shipped ``conf/consensus/default.yaml``).
+        A consensus YAML (default: the shipped ``conf/consensus/default.yaml``); its
+        methods in :data:`QUANTIFIER_KIN` are left out, its threshold and minimum votes
+        kept.
 
     Returns
     -------
@@ -56,7 +72,13 @@ def detect(rec: Recording, consensus_path: str | None = None) -> dict[str, Any]:
     from ..realdata.consensus import Consensus
     from ..realdata.panel import window_calls
 
-    c = Consensus.load(consensus_path)
+    shipped = Consensus.load(consensus_path)
+    c = Consensus(tuple(m for m in shipped.methods if m not in QUANTIFIER_KIN),
+                  shipped.threshold, shipped.min_votes)
+    if not c.methods:
+        return {"verdict": "inconclusive", "reason": "no detector outside the "
+                f"quantification's kind ({', '.join(QUANTIFIER_KIN)}) in the consensus",
+                "consensus": c.to_dict(), "loop_type": "", "methods": {}}
     calls = window_calls(rec, str(rec.meta.get("name", "")), c.methods)
     verdict, reason = c.decide({m: calls[m].verdict for m in c.methods})
     return {"verdict": verdict, "reason": reason, "consensus": c.to_dict(),
