@@ -122,7 +122,7 @@ def write_sets(per_class: int = 12) -> None:
             continue
         subprocess.run([sys.executable, str(ROOT / "experiments" / gen / "generate.py"),
                         "--out", str(BLIND / name), "--per-class", str(per_class),
-                        "--first-seed", str(seed), "--quiet"], check=True)
+                        "--first-seed", str(seed)], check=True, stdout=subprocess.DEVNULL)
 
 
 def jobs() -> list[dict]:
