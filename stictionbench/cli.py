@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Sequence
 from importlib import import_module
@@ -52,8 +54,28 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return p
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C: joblib's
+    workers are shut down and no output file is left half-written."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``stictionbench`` console script."""
+    """Entry point of the ``stictionbench`` console script (SIGTERM handled as
+    :class:`Terminated` while it runs; the previous handler restored after)."""
+    if threading.current_thread() is not threading.main_thread():
+        return _main(argv)
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        return _main(argv)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     held: list[str] = []
     try:
@@ -81,6 +103,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:  # a file that vanished or a disk that filled mid-run
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         return _error(f"{where}{exc.strerror or exc}", held)
+    except Terminated:
+        print("stictionbench: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
         print("stictionbench: interrupted", file=sys.stderr)
         return 130

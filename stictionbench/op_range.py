@@ -74,3 +74,36 @@ def infer_op_range(op: np.ndarray) -> tuple[float, float] | None:
                 span is FRACTION or op.max() > FRACTION[1] + OVERSHOOT):
             return span
     return None
+
+
+def check_op_range(op: np.ndarray, span: tuple[float, float], what: str) -> None:
+    """Refuse a given OP range that the recorded OP does not fit: a units mistake
+    (``--op-range 0 1`` on an OP in per cent) would otherwise fit the valve
+    characteristic on OP values far outside 0–100 %.
+
+    OP may over- or under-shoot the range by :data:`OVERSHOOT` of its span, as in
+    :func:`infer_op_range`.
+
+    Raises
+    ------
+    InputError
+        When OP leaves ``span`` by more than that; the message names ``what`` (the
+        option or file that gave the range) and OP's recorded span.
+
+    Examples
+    --------
+    >>> check_op_range(np.array([10.0, 60.0]), (0.0, 100.0), "--op-range")
+    >>> try:
+    ...     check_op_range(np.array([10.0, 60.0]), (0.0, 1.0), "--op-range")
+    ... except Exception as exc:
+    ...     print(str(exc)[:46])
+    --op-range: OP runs from 10 to 60, outside the
+    """
+    from .errors import InputError
+
+    op = np.asarray(op, dtype=float)
+    if not _within(op, span):
+        raise InputError(f"{what}: OP runs from {op.min():.4g} to {op.max():.4g}, outside "
+                         f"the range {span[0]:g} to {span[1]:g} given (by more than "
+                         f"{OVERSHOOT * 100:g} % of it); give OP's 0 and 100 % in OP's "
+                         "own units")

@@ -97,3 +97,35 @@ def test_a_closed_pipe_ends_the_command_quietly(tmp_path):
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 141
     assert err == ""
+
+
+def test_sigterm_stops_a_batch_cleanly(tmp_path):
+    """SIGTERM unwinds like Ctrl-C: exit 143, one line, no output, no worker left."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import pandas as pd
+
+    import stictionbench as sb
+
+    data = tmp_path / "loops"
+    data.mkdir()
+    for i in range(40):
+        r = sb.simulate("stiction", duration=2000, seed=i, sample_time=1.0)
+        pd.DataFrame({"t": r.t, "SP": r.SP, "PV": r.PV, "OP": r.OP}).to_csv(
+            data / f"FIC{i:03d}.csv", index=False)
+    out = tmp_path / "o.json"
+    p = subprocess.Popen([sys.executable, "-m", "stictionbench.cli", "batch", str(data),
+                          "--json", str(out), "--jobs", "2"],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    time.sleep(4.0)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    if p.returncode == 0:  # finished before the signal on a fast machine
+        assert out.exists()
+        return
+    assert p.returncode == 128 + signal.SIGTERM, err
+    assert err.strip().splitlines()[-1] == "stictionbench: terminated"
+    assert not out.exists()

@@ -844,6 +844,21 @@ def test_op_range_in_the_model_yaml_and_on_the_command_line(tmp_path, capsys):
     assert "--op-range" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o.json").exists()
 
+    # a range OP does not fit (per-cent OP given as a fraction): refused, not fitted
+    op = _rec().OP
+    lo, hi = float(op.min()), float(op.max())
+    wrong = f"{lo / 100:.6g}"
+    assert main(["diagnose", str(csv), "--json", str(tmp_path / "o.json"),
+                 "--op-range", wrong, f"{hi / 100:.6g}"]) == 2
+    err = capsys.readouterr().err
+    assert "OP runs from" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o.json").exists()
+    y.write_text(MODEL + f"op_range: [{lo / 100:.6g}, {hi / 100:.6g}]\n")
+    assert main(["diagnose", str(csv), "--model", str(y), "--json",
+                 str(tmp_path / "o.json")]) == 2
+    assert "op_range: OP runs from" in capsys.readouterr().err
+    assert not (tmp_path / "o.json").exists()
+
 
 def test_diagnose_uses_the_longest_stretch_of_a_record_with_an_outage(tmp_path, capsys):
     frame = _rec().to_frame()[["t", "SP", "PV", "OP"]]

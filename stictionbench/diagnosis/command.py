@@ -11,6 +11,7 @@ from ..errors import InputError, user_warning
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..io import read_longest_stretch, write_text
+    from ..op_range import check_op_range
     from ..validation import check_writable, refuse_overwrite
     from .diagnose import RESOLUTION_FLOOR, WARNING_KEYS, diagnose
     from .model import load_model
@@ -32,6 +33,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
             raise InputError(f"--op-range: expected LO HI with HI > LO, got {lo:g} {hi:g}")
         op_range = (lo, hi)
+        check_op_range(rec.OP, op_range, "--op-range")
+    elif model is not None and model.op_range is not None:
+        check_op_range(rec.OP, model.op_range, f"{args.model}: op_range")
     if args.linear_input_gate is not None and model is None:
         flag = "--linear-input-gate" if args.linear_input_gate else "--no-linear-input-gate"
         raise InputError(f"{flag} needs --model: it tests a valve against a given model")
