@@ -185,14 +185,16 @@ def _csv_frame(p: Path, nrows: int | None = None) -> tuple[pd.DataFrame, str]:
     sniffed from the header line (:func:`_delimiter`), a byte-order mark dropped and the
     column names stripped; ``(frame, delimiter)``."""
     head = p.read_bytes()[:4096]
-    if b"\x00" in head:
+    encoding = _text_encoding(head)
+    if encoding is None:
         raise InputError(f"{p}: binary data, not a CSV text file")
-    sep = _delimiter(head)
+    sep = _delimiter(head, encoding)
     try:
         frame = pd.read_csv(p, sep=sep, dtype=str, keep_default_na=False, nrows=nrows,
-                            skipinitialspace=True, encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputError(f"{p}: not UTF-8 text, not a CSV file") from None
+                            skipinitialspace=True, encoding=encoding)
+    except UnicodeError:
+        what = "UTF-16" if encoding.startswith("utf-16") else "UTF-8"
+        raise InputError(f"{p}: not {what} text, not a CSV file") from None
     except pd.errors.EmptyDataError:
         raise InputError(f"{p}: empty file") from None
     except pd.errors.ParserError as exc:
@@ -242,16 +244,45 @@ HISTORIAN_STATES = frozenset({
 DELIMITERS = (",", ";", "\t", "|")
 
 
-def _delimiter(head: bytes) -> str:
+def _text_encoding(head: bytes) -> str | None:
+    """The encoding of a text file from its first bytes, or None when they are binary.
+
+    UTF-16 is recognised by its byte-order mark (what a spreadsheet's "Unicode text"
+    export writes, tab-separated) or, without one, by text with a NUL byte after
+    (little-endian) or before (big-endian) every character (ASCII and Latin-1 text such
+    as ``°C``); any other NUL byte is binary data. Everything else is read as UTF-8, a
+    UTF-8 byte-order mark dropped.
+
+    Examples
+    --------
+    >>> _text_encoding("t\\tPV\\tOP\\n".encode("utf-16")), _text_encoding(b"t,PV,OP\\n")
+    ('utf-16', 'utf-8-sig')
+    >>> _text_encoding("t,PV,OP\\n".encode("utf-16-le")), _text_encoding(bytes(range(9)))
+    ('utf-16-le', None)
+    """
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        return "utf-16"
+    if b"\x00" not in head:
+        return "utf-8-sig"
+    even = head[: len(head) // 2 * 2]
+    for order, text, zeros in (("le", even[0::2], even[1::2]),
+                               ("be", even[1::2], even[0::2])):
+        if text and zeros == bytes(len(zeros)) and b"\x00" not in text:
+            return f"utf-16-{order}"
+    return None
+
+
+def _delimiter(head: bytes, encoding: str = "utf-8") -> str:
     """The delimiter of a CSV from its header line: the first of :data:`DELIMITERS` that
-    splits it into at least three fields (``t``, ``PV``, ``OP``), else ``,``.
+    splits it into at least three fields (``t``, ``PV``, ``OP``), else ``,``; ``head``
+    is decoded with ``encoding`` (:func:`_text_encoding`).
 
     Examples
     --------
     >>> _delimiter(b"t;SP;PV;OP\\n0;1,5;2;3\\n"), _delimiter(b"t,PV,OP\\n")
     (';', ',')
     """
-    line = head.decode("utf-8", errors="replace").lstrip("\ufeff").splitlines()[:1]
+    line = head.decode(encoding, errors="replace").lstrip("\ufeff").splitlines()[:1]
     for sep in DELIMITERS:
         if line and len(line[0].split(sep)) >= len(REQUIRED):
             return sep

@@ -304,6 +304,24 @@ def test_cli_contract_and_report(stiction_rec, tmp_path, capsys):
     assert "identified" in res2["details"]["note"]
 
 
+@pytest.mark.parametrize("scale, hint", [(1000.0, "(is t in milliseconds?)"),
+                                         (1 / 60, "(is t in minutes?)"), (60.0, None)])
+def test_sample_time_warning_names_a_unit_mistake(stiction_rec, tmp_path, capsys, scale,
+                                                  hint):
+    """t in ms (or minutes) against a model in seconds steps 1000 (1/60) times the model's
+    sample time: the warning asks; a 60 s historian against a 1 s model is only warned."""
+    frame = stiction_rec.to_frame()[["t", "SP", "PV", "OP"]].iloc[:1200]
+    frame["t"] = frame["t"] * scale
+    csv = tmp_path / "rec.csv"
+    frame.to_csv(csv, index=False)
+    model = tmp_path / "m.yaml"
+    model.write_text(MODEL)
+    assert main(["diagnose", str(csv), "--model", str(model), "--json",
+                 str(tmp_path / "o.json")]) == 0
+    line = [e for e in capsys.readouterr().err.splitlines() if "sample_time 1 s" in e]
+    assert len(line) == 1 and (hint in line[0] if hint else "(is t in" not in line[0])
+
+
 @pytest.mark.parametrize("text, needle", [
     ("process: {gain: 2.0, time_constant: [1\n", "not valid YAML"),
     ("controller: {kc: 1, ti: 2}\n", "missing key 'process'"),

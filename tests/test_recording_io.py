@@ -276,6 +276,30 @@ def test_semicolon_tab_and_decimal_comma_csv_read_as_the_comma_one(tmp_path, sep
         np.testing.assert_array_equal(getattr(a, c), getattr(b, c))
 
 
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-le", "utf-16-be"])
+def test_utf16_spreadsheet_export_read_as_the_utf8_one(tmp_path, encoding):
+    """A spreadsheet's "Unicode text" export (UTF-16 with a byte-order mark, tab, decimal
+    comma, a unit such as ``°C`` in the header) and UTF-16 without a mark give the same
+    numbers as the plain CSV; a NUL byte that fits no UTF-16 pattern stays binary."""
+    plain = tmp_path / "plain.csv"
+    plain.write_text(_frame_text())
+    lines = _frame_text().splitlines()
+    lines[0] = "t [s]\tSP (°C)\tPV (°C)\tOP [%]"
+    text = "\r\n".join([lines[0]] + ["\t".join(v.replace(".", ",") for v in line.split(","))
+                                     for line in lines[1:]]) + "\r\n"
+    other = tmp_path / "unicode.txt"
+    other.write_bytes(text.encode(encoding))
+    a, b = read_recording(plain), read_recording(other)
+    for c in ("t", "SP", "PV", "OP"):
+        np.testing.assert_array_equal(getattr(a, c), getattr(b, c))
+    broken = bytearray(text.encode("utf-16-le"))
+    broken[1] = 0x41  # a non-NUL high byte in the first character: no UTF-16 pattern
+    bad = tmp_path / "broken.csv"
+    bad.write_bytes(bytes(broken))
+    with pytest.raises(InputError, match="binary data"):
+        read_recording(bad)
+
+
 @pytest.mark.parametrize("header, clash, message", [
     ("Time,sp,pv,Op", "t,pv,Pv,OP", "pv, Pv could each be PV"),
     # historian exports put the unit after the name; CO (controller output) is the

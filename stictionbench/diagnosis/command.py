@@ -10,8 +10,9 @@ from ..errors import InputError, user_warning
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
-    from ..io import read_longest_stretch, write_text
+    from ..io import write_text
     from ..op_range import check_op_range
+    from ..realdata.datasets import read_one
     from ..validation import check_writable, refuse_overwrite
     from .diagnose import RESOLUTION_FLOOR, WARNING_KEYS, diagnose
     from .model import load_model
@@ -21,12 +22,12 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     refuse_overwrite([args.json, args.report], [args.recording, args.model])
     check_writable([args.json], [args.report])
     model = load_model(args.model) if args.model else None
-    rec = read_longest_stretch(args.recording)
+    rec = read_one(args.recording, loop=args.loop)
     if model is not None and model.sample_time and not math.isclose(
             model.sample_time, rec.Ts, rel_tol=0.01):
         user_warning(f"{args.model}: sample_time {model.sample_time:g} s differs from the "
-                     f"recording's {rec.Ts:g} s; the model is continuous-time and is used "
-                     "as given")
+                     f"recording's {rec.Ts:g} s{_unit_hint(rec.Ts / model.sample_time)}; "
+                     "the model is continuous-time and is used as given")
     op_range = None
     if args.op_range:
         lo, hi = args.op_range
@@ -60,6 +61,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                  detection=args.detection)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
+    if args.loop is not None or str(args.recording).lower().endswith(".mat"):
+        payload["loop"] = rec.meta.get("name")
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
         payload["rows"] = list(rec.meta["rows"])
     try:  # serialised before anything is written: no report without its JSON
@@ -85,6 +88,26 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+#: ratios of the recording's step to the model's sample time that say ``t`` was written in
+#: another unit than the model's seconds (a 1 s sampling logged in ms steps by 1000)
+UNIT_RATIOS = {1000.0: "milliseconds", 1 / 60: "minutes", 1 / 3600: "hours"}
+
+
+def _unit_hint(ratio: float) -> str:
+    """`` (is t in milliseconds?)`` when ``ratio`` (recording step / model sample time) is
+    within 1 % of one of :data:`UNIT_RATIOS`, else ``""``.
+
+    Examples
+    --------
+    >>> _unit_hint(1000.0), _unit_hint(1 / 60), _unit_hint(60.0)
+    (' (is t in milliseconds?)', ' (is t in minutes?)', '')
+    """
+    for r, unit in UNIT_RATIOS.items():
+        if math.isclose(ratio, r, rel_tol=0.01):
+            return f" (is t in {unit}?)"
+    return ""
+
+
 def _safe(o):
     import numpy as np
 
@@ -96,7 +119,11 @@ def _safe(o):
 def add_command(sub) -> None:
     p = sub.add_parser("diagnose", help="locate and explain the gap between a nominal "
                                         "model and a recording")
-    p.add_argument("recording", help="CSV/Parquet with t, SP, PV, OP (MV optional)")
+    p.add_argument("recording", help="CSV/Parquet with t, SP, PV, OP (MV optional), or an "
+                                     "ISDB-layout .mat file (with --loop)")
+    p.add_argument("--loop", metavar="NAME",
+                   help="the loop of a .mat file holding several: its book name (CHEM10) "
+                        "or sector.loopN (chemicals.loop10)")
     p.add_argument("--model", help="nominal model YAML (identified from the data if absent)")
     p.add_argument("--json", required=False, metavar="OUT.json")
     p.add_argument("--report", metavar="DIR", help="write figures and summary.md here")

@@ -85,13 +85,14 @@ def build_estimator(method: str | None, params: Sequence[str] | None,
 
 def cmd_estimate(args: argparse.Namespace) -> int:
     """Run ``estimate``: print a table, optionally write the result as JSON."""
-    from ..io import read_longest_stretch, write_text
+    from ..io import write_text
+    from ..realdata.datasets import read_one
     from ..validation import check_writable, refuse_overwrite
 
     refuse_overwrite([args.json], [args.recording])
     check_writable([args.json])
     est = build_estimator(args.method, args.param, args.overrides)
-    rec = read_longest_stretch(args.recording)
+    rec = read_one(args.recording, loop=args.loop)
     yname = args.y or est.default_y
     if yname == "MV" and getattr(rec, "MV", None) is None:
         # the paper's estimators compare OP with the valve position, which plants rarely
@@ -103,6 +104,8 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     res = est.estimate(rec, x=args.x, y=args.y)
     payload = res.to_dict()
     payload["recording"] = str(args.recording)
+    if args.loop is not None or str(args.recording).lower().endswith(".mat"):
+        payload["loop"] = rec.meta.get("name")
     if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
         payload["rows"] = list(rec.meta["rows"])
     payload["estimator"] = repr(est)
@@ -122,7 +125,11 @@ def cmd_estimate(args: argparse.Namespace) -> int:
 def add_command(sub: argparse._SubParsersAction) -> None:
     """Add the ``estimate`` sub-command."""
     e = sub.add_parser("estimate", help="run one estimator on a recording")
-    e.add_argument("recording")
+    e.add_argument("recording", help="CSV/Parquet with t, PV, OP (SP, MV optional), or an "
+                                     "ISDB-layout .mat file (with --loop)")
+    e.add_argument("--loop", metavar="NAME",
+                   help="the loop of a .mat file holding several: its book name (CHEM10) "
+                        "or sector.loopN (chemicals.loop10)")
     e.add_argument("overrides", nargs="*", metavar="estimator=NAME",
                    help="Hydra-style choice from conf/estimator/: estimator=xcum "
                         "estimator.max_delay=50 (instead of --method/--param)")

@@ -619,3 +619,78 @@ def read_any(path: str | os.PathLike[str], *, warn: bool = True) -> dict[str, Re
         return load_isdb_mat(p, errors="skip", warn=warn)
     return {n: _with_meta(r, {"name": n, "group": p.stem})
             for n, r in _stretch_names(p.stem, read_stretches(p, warn=warn))}
+
+
+def read_one(path: str | os.PathLike[str], *, loop: str | None = None,
+             warn: bool = True) -> Recording:
+    """One recording from a file of any supported format, for the commands that read one
+    (``diagnose``, ``estimate``).
+
+    A ``.csv`` or ``.parquet`` file gives its longest usable stretch
+    (:func:`stictionbench.io.read_longest_stretch`). An ISDB-layout ``.mat`` file
+    (:func:`load_isdb_mat`) gives the loop named ``loop``, by its book name
+    (``CHEM10``) or as ``sector.loopN`` (``chemicals.loop10``); ``loop`` may be left out
+    when the file holds one loop.
+
+    Parameters
+    ----------
+    path : path-like
+        The recording file.
+    loop : str, optional
+        The loop of a ``.mat`` file; refused for any other file.
+    warn : bool
+        Print the readers' warnings on stderr.
+
+    Raises
+    ------
+    InputError
+        From the reader; ``loop`` given for a file that is not ``.mat``; a ``.mat`` file
+        of several loops without ``loop``, a loop it does not hold (the message lists
+        those it does) or one that cannot be read (the reason); an OP-only file (the
+        oscillation benchmark has no PV).
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.io, tempfile, os
+    >>> k = np.arange(300.0)
+    >>> loops = {f"loop{i}": {"PV": np.sin(k / 9 + i), "OP": np.cos(k / 9), "Ts": 1.0}
+    ...          for i in (1, 2)}
+    >>> f = os.path.join(tempfile.mkdtemp(), "isdb.mat")
+    >>> scipy.io.savemat(f, {"cdata": {"chemicals": loops}})
+    >>> read_one(f, loop="CHEM2").meta["name"], read_one(f, loop="chemicals.loop1").meta["name"]
+    ('CHEM2', 'CHEM1')
+    """
+    from ..io import read_longest_stretch
+
+    p = Path(path)
+    if p.suffix.lower() != ".mat":
+        if loop is not None:
+            raise InputError(f"{p}: --loop picks a loop of a .mat file; this file is one "
+                             f"recording")
+        return read_longest_stretch(p, warn=warn)
+    recs, skipped = scan_isdb_mat(p, warn=warn)
+    if not recs and skipped and all(" no PV" in r for _, r in skipped):
+        raise InputError(f"{p}: its loops have OP but no PV (the OP-only oscillation "
+                         f"benchmark?); a diagnosis needs PV: use `stictionbench screen` "
+                         f"or `oscillation-benchmark`")
+    names = list(recs) + [n for n, _ in skipped if n not in recs]
+    if loop is None:
+        if len(names) == 1 and recs:
+            return next(iter(recs.values()))
+        if len(names) == 1:
+            raise InputError(skipped[0][1])
+        shown = ", ".join(names[:12]) + (", ..." if len(names) > 12 else "")
+        raise InputError(f"{p}: holds {len(names)} loops; pick one with --loop NAME "
+                         f"({shown})")
+    wanted = loop.strip()
+    sector, dot, lp = wanted.partition(".")
+    sector = {k.lower(): k for k in SECTOR_PREFIX}.get(sector.lower(), sector)
+    key = (_book_name(sector, lp) if dot else wanted).lower()
+    for name, rec in recs.items():
+        if name.lower() == key:
+            return rec
+    for name, reason in skipped:
+        if name.lower() == key:
+            raise InputError(reason)
+    shown = ", ".join(names[:12]) + (", ..." if len(names) > 12 else "")
+    raise InputError(f"{p}: no loop {wanted!r}; it holds {shown}")
