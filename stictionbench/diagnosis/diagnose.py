@@ -109,6 +109,8 @@ from .routes import (
     name_gain_error,
     name_held_limit,
     name_line,
+    pairing_answer,
+    pairing_test,
 )
 
 # the answer's type and the routes after the ranking live in .result and .routes; they
@@ -702,7 +704,7 @@ def own_resolution(rec: Recording, model_given: bool) -> frozenset[str]:
 #: prints them on stderr, the report lists them): regulatory data without a model, a
 #: nominal model that does not explain PV, a record too short for the loop's speed
 WARNING_KEYS = ("warning", "model_warning", "record_warning", "limit_warning",
-                "controller_rate_warning")
+                "controller_rate_warning", "pairing_warning")
 
 #: a PI executing this many times per recorded sample or more gets the controller-rate
 #: warning (:func:`controller_rate_warning`)
@@ -791,7 +793,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              test_noise_family: str | None = None, line_test: bool = False,
              intersample: bool = True,
              resolution_floor: float = RESOLUTION_FLOOR,
-             alignment: float = 1.0, detection: bool = False) -> Diagnosis:
+             alignment: float = 1.0, detection: bool = False,
+             pairing_check: bool = False) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -895,6 +898,11 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         ``stiction`` where they find a sticky valve and the stiction fit's slip jump has
         an interval that excludes 0 (:func:`.detection.name_detected`: detection, then
         quantification, Jelali & Huang 2010). Ignored with a model.
+    pairing_check : bool
+        Answer ``none`` where the recording's OP and PV are independent by Haugh's test
+        at ``alpha`` (:func:`.routes.pairing_answer`; what was named stays under
+        ``details.op_pv_independent``). The test itself (``tests.op_pv_dependence``) and
+        its warning (``details.pairing_warning``) are always given.
 
     Returns
     -------
@@ -914,6 +922,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         from .slip_bootstrap import check_request
 
         check_request(rec, model, slip_jump_bootstrap, bootstrap_seed)
+    pairing = pairing_test(rec, alpha)
     kw = dict(hp_factor=hp_factor, lp_factor=lp_factor, pem=pem, op_range=op_range,
               n_blocks=n_blocks, block_layout=block_layout, noise_family=noise_family,
               test_noise_family=test_noise_family, alignment=alignment)
@@ -946,6 +955,11 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d = name_detected(d, detect(rec))
         d.details["decided_by"] = decided_by(d)
     d = floor_answer(d, resolution_floor)
+    d.tests["op_pv_dependence"] = pairing
+    if pairing.get("warning"):
+        d.details["pairing_warning"] = pairing["warning"]
+    if pairing_check:
+        d = pairing_answer(d, alpha)
     d.details["seconds"] = time.perf_counter() - t0
     return d
 

@@ -25,7 +25,8 @@ from .gain import GainTest
 from .result import Diagnosis
 
 __all__ = ["DECISION_ROUTES", "RESOLUTION_FLOOR", "after_comparison", "decided_by",
-           "floor_answer", "name_gain_error", "name_held_limit", "name_line"]
+           "floor_answer", "name_gain_error", "name_held_limit", "name_line",
+           "pairing_answer", "pairing_test"]
 
 #: below this validation NRMSE of the nominal model nothing is named
 #: (:func:`floor_answer`)
@@ -67,16 +68,23 @@ def floor_answer(d: Diagnosis, floor: float = RESOLUTION_FLOOR) -> Diagnosis:
         # read off OP itself, not a fit's improvement: a clamped OP drives the plant as
         # recorded, so the nominal explains PV there by construction (name_held_limit)
         return d
-    d.details["resolution_floor"] = {
+    return _hold_back(d, "resolution_floor", {
         "floor": float(floor), "nominal_nrmse": float(nominal),
-        "named_before": d.missing_physics, "parameters_before": d.parameters,
-        "improved_before": d.fit.get("improved"),
         "reason": (f"the nominal model explains PV to within {nominal:.2g} of its spread "
-                   f"on the validation blocks (below {floor:g}): nothing is named")}
+                   f"on the validation blocks (below {floor:g}): nothing is named")})
+
+
+def _hold_back(d: Diagnosis, key: str, info: dict[str, Any]) -> Diagnosis:
+    """``none`` in place of ``d``'s answer, in place: what was named, its parameters and
+    improved fit go to ``details[key]`` beside ``info``; the fit becomes the nominal's."""
+    nominal = d.fit.get("nominal")
+    d.details[key] = {**{k: v for k, v in info.items() if k != "reason"},
+                      "named_before": d.missing_physics, "parameters_before": d.parameters,
+                      "improved_before": d.fit.get("improved"), "reason": info["reason"]}
     d.missing_physics, d.parameters, d.uncertainty = "none", {}, {}
     if "rival" in d.tests:
         d.tests["rival"] = {"method": d.tests["rival"].get("method", "vuong"), "rival": None,
-                            "reason": "the answer is the nominal model (resolution floor)"}
+                            "reason": f"the answer is the nominal model ({key})"}
     fit = {**d.fit, "improved": nominal}
     if isinstance(fit.get("innovation_variance"), dict):
         iv = fit["innovation_variance"]
@@ -84,6 +92,52 @@ def floor_answer(d: Diagnosis, floor: float = RESOLUTION_FLOOR) -> Diagnosis:
     d.fit = fit
     d.details["decided_by"] = decided_by(d)
     return d
+
+
+def pairing_test(rec: Any, alpha: float) -> dict[str, Any]:
+    """``tests.op_pv_dependence``: Haugh's test that the recording's OP and PV are
+    independent (:func:`.noise.series_independence`), ``independent`` when it cannot
+    reject that at ``alpha``; ``warning`` then says what it means."""
+    from .noise import series_independence
+
+    t = series_independence(rec.PV, rec.OP)
+    t["independent"] = bool(t["p_value"] >= alpha)
+    if t["independent"]:
+        t["warning"] = (f"OP and PV are independent by Haugh's test (p = {t['p_value']:.2g} "
+                        f"at lags up to ±{t['lags']} samples): this OP does not drive this "
+                        "PV and no controller answers it (a tag of another loop, or a "
+                        "record without the loop's dynamics); check the tags")
+    return t
+
+
+def pairing_answer(d: Diagnosis, alpha: float) -> Diagnosis:
+    """``none`` in place of a named physics where the recording's OP and PV are
+    independent (``tests.op_pv_dependence``, :func:`pairing_test`), in place; what was
+    named stays under ``details.op_pv_independent``.
+
+    Why: every closed loop makes OP and PV dependent (the process one way, the
+    controller the other), and every hypothesis explains PV from OP. Where the data
+    cannot reject their independence, the model identified from them (or the one given)
+    is not this PV's, and a physics named by its fit is named from noise.
+
+    Examples
+    --------
+    >>> from stictionbench.diagnosis.model import NominalModel
+    >>> d = Diagnosis(True, "deadband", {"deadband": 0.1}, {"nominal": 0.9,
+    ...               "improved": 0.7}, [], [], [], NominalModel(1.0, 10.0, 1.0), {},
+    ...               tests={"op_pv_dependence": {"p_value": 0.4, "independent": True}})
+    >>> pairing_answer(d, 0.05).missing_physics, d.details["decided_by"]
+    ('none', 'op_pv_independent')
+    """
+    t = d.tests.get("op_pv_dependence") or {}
+    if d.missing_physics == "none" or not t.get("independent"):
+        return d
+    if d.tests.get("op_held_at_limit", {}).get("named"):
+        return d  # read off OP itself (as floor_answer)
+    return _hold_back(d, "op_pv_independent", {
+        "p_value": float(t["p_value"]), "alpha": float(alpha),
+        "reason": f"OP and PV are independent by Haugh's test (p = {t['p_value']:.2g}, "
+                  f"not below {alpha:g}): nothing explains PV from OP, so nothing is named"})
 
 
 #: the route by which :func:`answer` (or :func:`floor_answer`) reached the verdict,
@@ -107,6 +161,8 @@ DECISION_ROUTES = {
                  "slip jump has an interval that excludes 0",
     "resolution_floor": "the resolution floor: the nominal model already explains PV "
                         "within it, so what the tests named is held back",
+    "op_pv_independent": "the pairing check: OP and PV are independent by Haugh's test, "
+                         "so what the tests named from OP is held back",
 }
 
 
@@ -128,6 +184,8 @@ def decided_by(d: Diagnosis) -> str:
     >>> decided_by(d)
     'likelihood_tests'
     """
+    if d.details.get("op_pv_independent"):
+        return "op_pv_independent"
     if d.details.get("resolution_floor"):
         return "resolution_floor"
     if d.tests.get("detection", {}).get("named"):
