@@ -58,7 +58,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                  test_highpass_order=args.test_highpass_order,
                  test_noise_family=args.test_noise_family, line_test=args.line_test,
                  intersample=args.intersample, resolution_floor=floor,
-                 detection=args.detection)
+                 detection=args.detection, pairing_check=args.pairing_check)
     payload = d.to_json()
     payload["recording"] = str(args.recording)
     if args.loop is not None or str(args.recording).lower().endswith(".mat"):
@@ -182,4 +182,10 @@ def add_command(sub) -> None:
                         "(tests.detection; off by default: it names more ISDB stiction "
                         "loops but renames healthy and other simulated loops too, "
                         "reports/diagnose/detection_independent.md)")
+    p.add_argument("--pairing-check", action="store_true",
+                   help="answer none where OP and PV are independent by Haugh's test "
+                        "(tests.op_pv_dependence, always given with a warning: a tag of "
+                        "another loop, or a valve that never moved); off by default: on "
+                        "wrong-tag recordings it halved the physics named with a model, not "
+                        "quite without one (reports/diagnose/pairing_check.md)")
     p.set_defaults(func=cmd_diagnose)
