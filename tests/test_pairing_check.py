@@ -106,3 +106,15 @@ def test_cli_flag_and_warning(tmp_path, capsys):
     assert t["independent"] is True and res["missing_physics"] == "none"
     err = capsys.readouterr().err
     assert "check the tags" in err and "stuck" in err
+
+
+def test_screen_warns_on_an_independent_pair_only():
+    from stictionbench.realdata.quality import screen
+
+    y, u = _independent(0, 3000)
+    rep = screen(sb.Recording.from_arrays(np.arange(3000.0), y, u, warn=False))
+    assert rep.usable and rep.flags["op_pv_independence_p"] >= 0.05
+    assert any("OP and PV independent" in w for w in rep.warnings)
+    loop = screen(sb.simulate("linear", duration=2000.0, seed=1, sample_time=1.0))
+    assert loop.flags["op_pv_independence_p"] < 1e-10
+    assert not any("independent" in w for w in loop.warnings)

@@ -24,6 +24,8 @@ are keyword parameters of :func:`screen` (defaults in brackets):
 - *OP saturation* (within 0.5 % of its range from its minimum or maximum): warning and
   falling score above 20 % of samples, unusable above 80 % (the loop open throughout);
 - *mean-removed / normalised*: flag and warning, not unusable;
+- *OP and PV independent* (Haugh's test at 5 %, the diagnosis's pairing test): warning
+  only — a tag of another loop, or a valve that never moved;
 - *few periods* of the PV's regular oscillation (ACF, Thornhill et al. 2003): warning,
   score ``periods / 3``; *short* records (< 500 samples): warning, score ``n / 500``.
 
@@ -428,6 +430,22 @@ def _length(rec: Recording, sig: dict[str, np.ndarray], f: _Findings, target: st
                               f"{min_periods:g} are needed")
 
 
+def _pairing(rec: Recording, f: _Findings, alpha: float) -> None:
+    """Haugh's test that OP and PV are independent (the diagnosis's pairing test,
+    :func:`stictionbench.diagnosis.routes.pairing_test`): a warning where it cannot
+    reject that, no score (``reports/diagnose/pairing_check.md``)."""
+    f.flags["op_pv_independence_p"] = None
+    if f.reasons or f.bad:
+        return
+    from ..diagnosis.routes import pairing_test
+
+    t = pairing_test(rec, alpha)
+    f.flags["op_pv_independence_p"] = float(t["p_value"])
+    if t["independent"]:
+        f.warnings.append(f"OP and PV independent (Haugh's test p = {t['p_value']:.2g}): "
+                          "a tag of another loop, or a valve that never moved?")
+
+
 def grade(score: float, usable: bool) -> str:
     """``good`` (score ≥ 0.8), ``fair`` (≥ 0.5), ``poor`` or ``unusable``.
 
@@ -460,6 +478,7 @@ def screen(
     max_interpolated_frac: float = 0.5,
     min_periods: float = 3.0,
     warn_samples: int = 500,
+    pairing_alpha: float = 0.05,
 ) -> QualityReport:
     """Screen a Recording's data quality before any diagnosis: a graded score, and
     ``unusable`` only for data that cannot support a verdict.
@@ -496,6 +515,9 @@ def screen(
         Fewer periods of the PV's regular oscillation: warning, score ``periods/3``.
     warn_samples : int
         Fewer samples: warning, score ``n/500``.
+    pairing_alpha : float
+        OP and PV independent by Haugh's test at this level (:func:`_pairing`): warning
+        only (a wrong tag, or a valve that never moved), ``flags["op_pv_independence_p"]``.
 
     Returns
     -------
@@ -531,6 +553,8 @@ def screen(
     _saturation_aspect(sig["OP"], f, sat_rtol, warn_sat_frac, max_sat_frac)
     _normalisation(sig, f, mean_rtol, unit_std_tol)
     _length(rec, sig, f, "OP" if op_only else "PV", min_periods, warn_samples)
+    if not op_only:
+        _pairing(rec, f, pairing_alpha)
     usable = not f.reasons
     score = float(np.prod(list(f.scores.values()))) if usable else 0.0
     f.flags.update(score=score, grade=grade(score, usable),
