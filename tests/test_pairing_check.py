@@ -105,7 +105,7 @@ def test_cli_flag_and_warning(tmp_path, capsys):
     t = res["tests"]["op_pv_dependence"]
     assert t["independent"] is True and res["missing_physics"] == "none"
     err = capsys.readouterr().err
-    assert "check the tags" in err and "stuck" in err
+    assert "check the tags" in err and "frozen transmitter" in err
 
 
 def test_screen_warns_on_an_independent_pair_only():

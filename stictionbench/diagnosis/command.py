@@ -12,7 +12,7 @@ from ..errors import InputError, user_warning
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..io import write_text
     from ..op_range import check_op_range
-    from ..realdata.datasets import read_one
+    from ..realdata.datasets import read_one, source_keys
     from ..validation import check_writable, refuse_overwrite
     from .diagnose import RESOLUTION_FLOOR, WARNING_KEYS, diagnose
     from .model import load_model
@@ -60,11 +60,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                  intersample=args.intersample, resolution_floor=floor,
                  detection=args.detection, pairing_check=args.pairing_check)
     payload = d.to_json()
-    payload["recording"] = str(args.recording)
-    if args.loop is not None or str(args.recording).lower().endswith(".mat"):
-        payload["loop"] = rec.meta.get("name")
-    if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
-        payload["rows"] = list(rec.meta["rows"])
+    payload.update(source_keys(args.recording, rec))
     try:  # serialised before anything is written: no report without its JSON
         text = json.dumps(payload, indent=2, allow_nan=False, default=_safe) + "\n"
     except ValueError:
@@ -185,7 +181,7 @@ def add_command(sub) -> None:
     p.add_argument("--pairing-check", action="store_true",
                    help="answer none where OP and PV are independent by Haugh's test "
                         "(tests.op_pv_dependence, always given with a warning: a tag of "
-                        "another loop, or a valve that never moved); off by default: on "
+                        "another loop, or a frozen PV); off by default: on "
                         "wrong-tag recordings it halved the physics named with a model, not "
                         "quite without one (reports/diagnose/pairing_check.md)")
     p.set_defaults(func=cmd_diagnose)

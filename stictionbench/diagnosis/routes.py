@@ -105,9 +105,9 @@ def pairing_test(rec: Any, alpha: float) -> dict[str, Any]:
     if t["independent"]:
         t["warning"] = (f"OP and PV are independent by Haugh's test (p = {t['p_value']:.2g} "
                         f"at lags up to ±{t['lags']} samples): this OP does not drive this "
-                        "PV and no controller answers it: a tag of another loop, a valve "
-                        "that did not move in the record (stuck, or held by hand), or a "
-                        "record without the loop's dynamics; check the tags")
+                        "PV and no controller answers it: a tag of another loop, a PV "
+                        "that does not measure (a frozen transmitter), or a controller "
+                        "in manual with the process at rest; check the tags")
     return t
 
 

@@ -86,7 +86,7 @@ def build_estimator(method: str | None, params: Sequence[str] | None,
 def cmd_estimate(args: argparse.Namespace) -> int:
     """Run ``estimate``: print a table, optionally write the result as JSON."""
     from ..io import write_text
-    from ..realdata.datasets import read_one
+    from ..realdata.datasets import read_one, source_keys
     from ..validation import check_writable, refuse_overwrite
 
     refuse_overwrite([args.json], [args.recording])
@@ -103,11 +103,7 @@ def cmd_estimate(args: argparse.Namespace) -> int:
                          "`diagnose`")
     res = est.estimate(rec, x=args.x, y=args.y)
     payload = res.to_dict()
-    payload["recording"] = str(args.recording)
-    if args.loop is not None or str(args.recording).lower().endswith(".mat"):
-        payload["loop"] = rec.meta.get("name")
-    if "rows" in rec.meta:  # the longest stretch between long gaps (file rows)
-        payload["rows"] = list(rec.meta["rows"])
+    payload.update(source_keys(args.recording, rec))
     payload["estimator"] = repr(est)
     if args.json:
         write_text(args.json, json.dumps(payload, indent=2) + "\n")

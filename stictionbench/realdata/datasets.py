@@ -694,3 +694,15 @@ def read_one(path: str | os.PathLike[str], *, loop: str | None = None,
             raise InputError(reason)
     shown = ", ".join(names[:12]) + (", ..." if len(names) > 12 else "")
     raise InputError(f"{p}: no loop {wanted!r}; it holds {shown}")
+
+
+def source_keys(path: str | os.PathLike[str], rec: Recording) -> dict[str, Any]:
+    """What a command's JSON says about where ``rec`` came from (read by
+    :func:`read_one`): ``recording`` (the path given), ``loop`` for a ``.mat`` loop, and
+    ``rows`` (first and last file row) for the longest stretch of a file cut by gaps."""
+    out: dict[str, Any] = {"recording": str(path)}
+    if Path(path).suffix.lower() == ".mat":
+        out["loop"] = rec.meta.get("name")
+    if "rows" in rec.meta:
+        out["rows"] = list(rec.meta["rows"])
+    return out

@@ -25,7 +25,7 @@ are keyword parameters of :func:`screen` (defaults in brackets):
   falling score above 20 % of samples, unusable above 80 % (the loop open throughout);
 - *mean-removed / normalised*: flag and warning, not unusable;
 - *OP and PV independent* (Haugh's test at 5 %, the diagnosis's pairing test): warning
-  only — a tag of another loop, or a valve that never moved;
+  only — a tag of another loop, or a PV that does not measure;
 - *few periods* of the PV's regular oscillation (ACF, Thornhill et al. 2003): warning,
   score ``periods / 3``; *short* records (< 500 samples): warning, score ``n / 500``.
 
@@ -443,7 +443,7 @@ def _pairing(rec: Recording, f: _Findings, alpha: float) -> None:
     f.flags["op_pv_independence_p"] = float(t["p_value"])
     if t["independent"]:
         f.warnings.append(f"OP and PV independent (Haugh's test p = {t['p_value']:.2g}): "
-                          "a tag of another loop, or a valve that never moved?")
+                          "a tag of another loop, or a frozen PV?")
 
 
 def grade(score: float, usable: bool) -> str:
@@ -517,7 +517,7 @@ def screen(
         Fewer samples: warning, score ``n/500``.
     pairing_alpha : float
         OP and PV independent by Haugh's test at this level (:func:`_pairing`): warning
-        only (a wrong tag, or a valve that never moved), ``flags["op_pv_independence_p"]``.
+        only (a wrong tag, or a frozen PV), ``flags["op_pv_independence_p"]``.
 
     Returns
     -------
