@@ -12,7 +12,14 @@ from scipy import signal as sps
 from stictionbench.errors import InputError
 from stictionbench.estimators import available, make
 from stictionbench.estimators.area_ratio import area_ratios
-from stictionbench.estimators.detector import half_cycles, setpoint_changes, three_way
+from stictionbench.estimators.detector import (
+    forced_by_setpoint,
+    half_cycles,
+    oscillation,
+    setpoint_changes,
+    step_period,
+    three_way,
+)
 from stictionbench.estimators.hagglund import shape_indices
 from stictionbench.estimators.he import fit_sinusoid, fit_triangle
 from stictionbench.estimators.horch import cross_correlation, zero_lag_phase
@@ -195,6 +202,45 @@ def test_setpoint_changes_leave_half_cycles_out():
     n1 = make("he").estimate(rec).diagnostics["n_half_cycles"]
     n2 = make("he", use_error=False).estimate(rec2).diagnostics["n_half_cycles"]
     assert n2 == n1 - 1
+
+
+
+def _sp_rec(sp: np.ndarray) -> Recording:
+    n = np.arange(sp.size, dtype=float)
+    return Recording.from_arrays(n, sp, np.zeros(sp.size), SP=sp)
+
+
+def test_step_period_sees_repeating_changes_and_nothing_else():
+    n = np.arange(1300)
+    square = 50 + 10 * ((n // 250) % 2)
+    assert step_period(_sp_rec(square)) == 500.0
+    # up, up, down, down: the change four later repeats, none of fewer does
+    stair = 50 + 5 * np.array([0, 1, 2, 1])[(n // 150) % 4]
+    assert step_period(_sp_rec(stair[:1300])) == 600.0
+    # two spans are needed: a square wave with three changes shows no repetition
+    assert step_period(_sp_rec(square[:1000])) is None
+    rng = np.random.default_rng(3)
+    moves = np.cumsum(rng.uniform(60, 500, 8)).astype(int)
+    irregular = 50 + np.cumsum(np.isin(n, moves) * rng.uniform(2, 10, n.size))
+    assert step_period(_sp_rec(irregular)) is None
+    assert step_period(_sp_rec(np.full(1300, 50.0))) is None
+
+
+def test_setpoint_gate_on_a_window_too_short_for_the_sp_acf():
+    """A square-wave set point of period 500 in 1100 samples: the ACF test finds no
+    oscillation of SP, its change times do; the step responses' ringing at a third of
+    the period is the set point's, not the loop's own oscillation."""
+    n = np.arange(1100)
+    sp = 50 + 10 * ((n // 250) % 2)
+    e = np.sin(2 * np.pi * n / (500 / 3)) * np.exp(-(n % 250) / 200)
+    rec = Recording.from_arrays(n * 1.0, sp - e, np.zeros(n.size), SP=sp)
+    assert not oscillation(sp.astype(float)).oscillating
+    osc = oscillation(e)
+    assert osc.oscillating
+    assert forced_by_setpoint(e, rec, osc) == 3
+    # a limit cycle of its own period under the same set point is left to the detectors
+    cycle = np.sin(2 * np.pi * n / 110)
+    assert forced_by_setpoint(cycle, rec, oscillation(cycle)) is None
 
 
 # --------------------------------------------------------------------------- hägglund

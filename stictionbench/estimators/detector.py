@@ -111,7 +111,7 @@ HARMONIC_TOL = 0.15
 def forced_by_setpoint(x: np.ndarray, rec: Recording, osc: AcfOscillation) -> float | None:
     """The harmonic number ``k`` when the oscillation ``osc`` of ``x`` is the loop's
     response to a periodic set point (its period is the set point's period over ``k``,
-    within :data:`HARMONIC_TOL`, and the set point changes at least
+    :func:`setpoint_period`, within :data:`HARMONIC_TOL`, and the set point changes at least
     :data:`SERVO_CHANGES_PER_PERIOD` times per oscillation period), else None.
 
     The published detectors judge the *self-sustained* oscillation of a loop in regulatory
@@ -139,12 +139,71 @@ def forced_by_setpoint(x: np.ndarray, rec: Recording, osc: AcfOscillation) -> fl
     if setpoint_changes(rec).size * osc.period_samples / max(len(x), 1) \
             < SERVO_CHANGES_PER_PERIOD:
         return None
-    sp = oscillation(np.asarray(rec.SP, dtype=float))
-    if not sp.oscillating:
+    period = setpoint_period(rec)
+    if period is None:
         return None
-    r = sp.period_samples / osc.period_samples
+    r = period / osc.period_samples
     k = round(r)
     return int(k) if 1 <= k <= 5 and abs(r - k) <= HARMONIC_TOL else None
+
+
+#: most set-point changes in one period of a periodic set point that
+#: :func:`step_period` looks for (a square wave has 2, a staircase up and down 4)
+MAX_CHANGES_PER_PERIOD = 4
+
+
+def setpoint_period(rec: Recording) -> float | None:
+    """The period in samples of a periodic set point, else None: the ACF period of SP
+    (:func:`oscillation`) when its test finds an oscillation, else the period of its
+    change times (:func:`step_period`).
+
+    The ACF test needs several periods in the window; a square-wave set point of period
+    500 s in a 1000-sample window has two, too few for the regularity test, though every
+    change repeats the one a period before. The change times see that periodicity
+    (``experiments/setpoint_period.py``).
+    """
+    if rec.SP is None:
+        return None
+    sp = oscillation(np.asarray(rec.SP, dtype=float))
+    if sp.oscillating:
+        return float(sp.period_samples)
+    return step_period(rec)
+
+
+def step_period(rec: Recording, tol: float = HARMONIC_TOL) -> float | None:
+    """The period in samples of a piecewise-constant set point whose changes repeat,
+    else None.
+
+    The smallest ``q`` (1 to :data:`MAX_CHANGES_PER_PERIOD`) for which every change
+    ``i + q`` comes the same time after change ``i`` (spans within ``tol`` of their
+    median) with the same step (within ``tol`` of the largest step); the period is the
+    median span. Two spans at least are needed (``q + 2`` changes): one span cannot show
+    a repetition. Irregular moves (an operator's, a cascade master's output) give None.
+
+    Examples
+    --------
+    >>> n = np.arange(1100)
+    >>> sp = 50 + 10 * ((n // 250) % 2)                    # square wave, period 500
+    >>> step_period(Recording.from_arrays(n * 1.0, sp, sp, SP=sp))
+    500.0
+    >>> sp = 50 + 10 * (n >= 130) - 4 * (n >= 400) + 7 * (n >= 820)
+    >>> step_period(Recording.from_arrays(n * 1.0, sp, sp, SP=sp)) is None
+    True
+    """
+    if rec.SP is None:
+        return None
+    idx = setpoint_changes(rec)
+    sp = np.asarray(rec.SP, dtype=float)
+    steps = sp[idx] - sp[idx - 1]
+    for q in range(1, MAX_CHANGES_PER_PERIOD + 1):
+        if idx.size < q + 2:
+            return None
+        spans = (idx[q:] - idx[:-q]).astype(float)
+        med = float(np.median(spans))
+        if np.max(np.abs(spans - med)) <= tol * med and \
+                np.max(np.abs(steps[q:] - steps[:-q])) <= tol * np.max(np.abs(steps)):
+            return med
+    return None
 
 
 def self_oscillation(x: np.ndarray, rec: Recording) -> tuple[AcfOscillation, str | None]:
