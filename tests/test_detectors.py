@@ -15,9 +15,11 @@ from stictionbench.estimators.area_ratio import area_ratios
 from stictionbench.estimators.detector import (
     forced_by_setpoint,
     half_cycles,
+    isolated_steps,
     oscillation,
     setpoint_changes,
     step_period,
+    step_response_oscillation,
     three_way,
 )
 from stictionbench.estimators.hagglund import shape_indices
@@ -241,6 +243,48 @@ def test_setpoint_gate_on_a_window_too_short_for_the_sp_acf():
     # a limit cycle of its own period under the same set point is left to the detectors
     cycle = np.sin(2 * np.pi * n / 110)
     assert forced_by_setpoint(cycle, rec, oscillation(cycle)) is None
+
+
+
+def _ringing_under_steps(cycle: float = 0.0) -> tuple[np.ndarray, Recording]:
+    """A loop's error ringing after set-point steps at irregular times, plus a limit
+    cycle of amplitude ``cycle`` and its own period (130 samples)."""
+    n = np.arange(1800)
+    times = [40, 300, 420, 790, 1010, 1420, 1600]
+    sizes = [6.0, -4.0, 9.0, -7.0, 3.0, -8.0, 5.0]
+    sp = 50.0 + sum(s * (n >= t) for t, s in zip(times, sizes, strict=True))
+    k = np.arange(400)
+    ring = np.exp(-k / 120) * np.cos(2 * np.pi * k / 100)
+    e = np.convolve(np.r_[0, np.diff(sp)], ring)[:n.size]
+    e = e + cycle * np.sign(np.sin(2 * np.pi * n / 130 + 0.3))
+    e = e + 0.05 * np.random.default_rng(0).standard_normal(n.size)
+    return e, Recording.from_arrays(n * 1.0, sp - e, np.zeros(n.size), SP=sp)
+
+
+def test_step_response_gate_hands_back_a_healthy_loops_ringing():
+    e, rec = _ringing_under_steps()
+    osc = oscillation(e)
+    assert osc.oscillating and isolated_steps(rec, osc, e.size)
+    assert step_response_oscillation(e, rec, osc)
+    # a limit cycle is not a linear response to the steps: the detectors judge it
+    e2, rec2 = _ringing_under_steps(cycle=4.0)
+    osc2 = oscillation(e2)
+    assert osc2.oscillating and not step_response_oscillation(e2, rec2, osc2)
+    # a set point that moves every sample (a cascade master's output) is not steps
+    dense = np.asarray(rec.SP) + 0.01 * np.arange(e.size)
+    rec3 = Recording.from_arrays(rec.t, dense - e, np.zeros(e.size), SP=dense)
+    assert not isolated_steps(rec3, osc, e.size)
+    assert not step_response_oscillation(e, rec3, osc)
+
+
+def test_step_response_gate_in_the_detectors_reason():
+    e, rec = _ringing_under_steps()
+    op = np.convolve(e, np.ones(5) / 5, mode="same")
+    rec = Recording.from_arrays(rec.t, np.asarray(rec.PV), op, SP=np.asarray(rec.SP))
+    for name in ("horch", "he", "area_ratio"):
+        d = make(name).estimate(rec, x="OP", y="PV").diagnostics
+        assert (d["verdict"], d["reason"]) == (
+            "inconclusive", "the oscillation is the response to the set point's steps"), name
 
 
 # --------------------------------------------------------------------------- hägglund
