@@ -10,7 +10,7 @@ import pytest
 from scipy import signal as sps
 
 from stictionbench.errors import InputError
-from stictionbench.estimators import available, make
+from stictionbench.estimators import available, detector, make
 from stictionbench.estimators.area_ratio import area_ratios
 from stictionbench.estimators.detector import (
     forced_by_setpoint,
@@ -277,14 +277,20 @@ def test_step_response_gate_hands_back_a_healthy_loops_ringing():
     assert not step_response_oscillation(e, rec3, osc)
 
 
-def test_step_response_gate_in_the_detectors_reason():
+def test_step_response_gate_in_the_detectors_reason(monkeypatch):
+    """Off by default (the experiment's decision was not met); switched on, the
+    shape-based detectors give its reason."""
     e, rec = _ringing_under_steps()
     op = np.convolve(e, np.ones(5) / 5, mode="same")
     rec = Recording.from_arrays(rec.t, np.asarray(rec.PV), op, SP=np.asarray(rec.SP))
+    gated = ("inconclusive", "the oscillation is the response to the set point's steps")
     for name in ("horch", "he", "area_ratio"):
         d = make(name).estimate(rec, x="OP", y="PV").diagnostics
-        assert (d["verdict"], d["reason"]) == (
-            "inconclusive", "the oscillation is the response to the set point's steps"), name
+        assert (d["verdict"], d["reason"]) != gated, name
+    monkeypatch.setattr(detector, "STEP_RESPONSE_GATE", True)
+    for name in ("horch", "he", "area_ratio"):
+        d = make(name).estimate(rec, x="OP", y="PV").diagnostics
+        assert (d["verdict"], d["reason"]) == gated, name
 
 
 # --------------------------------------------------------------------------- hägglund
