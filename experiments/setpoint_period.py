@@ -180,13 +180,15 @@ def rates(df: pd.DataFrame, arm: str) -> dict:
             "balanced_accuracy": 0.5 * (k1 / max(len(sick), 1) + 1 - k0 / max(len(ok), 1))}
 
 
-def real_changes(before: Path) -> tuple[int, list[str]]:
-    """Loops of the stored comparison tables (``make real``) against ``before`` (the
-    tables of the commit before the change): the number compared and what moved."""
+def real_changes(before: Path, after: Path | None = None) -> tuple[int, list[str]]:
+    """Loops of the comparison tables in ``after`` (default: the stored ones of
+    ``make real``) against ``before`` (the tables of the commit before the change): the
+    number compared and what moved."""
     moved = []
     n = 0
+    after = after or ROOT / "reports" / "real"
     for ds in ("isdb", "plant"):
-        new = pd.read_csv(ROOT / "reports" / "real" / f"comparison_{ds}.csv")
+        new = pd.read_csv(after / f"comparison_{ds}.csv")
         old = pd.read_csv(before / f"comparison_{ds}.csv")
         cols = [c for c in new.columns if c in [*PUBLISHED, "consensus"]]
         merged = old.merge(new, on="loop", suffixes=("_old", "_new"))

@@ -247,11 +247,14 @@ def test_setpoint_gate_on_a_window_too_short_for_the_sp_acf():
 
 
 def _ringing_under_steps(cycle: float = 0.0) -> tuple[np.ndarray, Recording]:
-    """A loop's error ringing after set-point steps at irregular times, plus a limit
-    cycle of amplitude ``cycle`` and its own period (130 samples)."""
+    """A loop's error ringing (period 100, decay time 120 samples) after set-point steps
+    at irregular times (gaps 120–220 samples), plus a limit cycle of amplitude ``cycle``
+    and its own period (130 samples)."""
     n = np.arange(1800)
-    times = [40, 300, 420, 790, 1010, 1420, 1600]
-    sizes = [6.0, -4.0, 9.0, -7.0, 3.0, -8.0, 5.0]
+    rng = np.random.default_rng(1)
+    times = np.cumsum(rng.uniform(120, 220, 12)).astype(int) + 30
+    times = times[times < 1780]
+    sizes = rng.uniform(3, 9, times.size) * np.where(np.arange(times.size) % 2, -1, 1)
     sp = 50.0 + sum(s * (n >= t) for t, s in zip(times, sizes, strict=True))
     k = np.arange(400)
     ring = np.exp(-k / 120) * np.cos(2 * np.pi * k / 100)
@@ -266,6 +269,11 @@ def test_step_response_gate_hands_back_a_healthy_loops_ringing():
     osc = oscillation(e)
     assert osc.oscillating and isolated_steps(rec, osc, e.size)
     assert step_response_oscillation(e, rec, osc)
+    # fewer moves than one per two periods: outside the gate's scope
+    few = np.where(np.arange(e.size) < 900, np.asarray(rec.SP)[0], np.asarray(rec.SP)[-1])
+    rec_few = Recording.from_arrays(rec.t, few - e, np.zeros(e.size), SP=few)
+    assert isolated_steps(rec_few, osc, e.size)
+    assert not step_response_oscillation(e, rec_few, osc)
     # a limit cycle is not a linear response to the steps: the detectors judge it
     e2, rec2 = _ringing_under_steps(cycle=4.0)
     osc2 = oscillation(e2)

@@ -236,6 +236,10 @@ STEP_RESPONSE_GATE = False
 #: loop that rings longer; on the design windows of ``experiments/setpoint_response.py``
 #: one and two periods left the same limit cycles (47 of 48), three began to absorb them
 STEP_RESPONSE_PERIODS = 2.0
+#: set-point changes per oscillation period from which :func:`step_response_oscillation`
+#: applies: the periodic gate's scope (:data:`SERVO_CHANGES_PER_PERIOD`), set by
+#: ``experiments/setpoint_response_scope.py`` (0 in ``setpoint_response.py``, the first try)
+STEP_RESPONSE_MIN_CHANGES = SERVO_CHANGES_PER_PERIOD
 #: share of the error's variance above which the response to the set point's steps is
 #: what the detectors would judge (most of it: a half)
 FORCED_SHARE = 0.5
@@ -273,7 +277,8 @@ def setpoint_residual(x: np.ndarray, rec: Recording, length: int) -> np.ndarray:
 
 def step_response_oscillation(x: np.ndarray, rec: Recording, osc: AcfOscillation) -> bool:
     """True when the oscillation ``osc`` of ``x`` is the loop's response to the set
-    point's steps: the set point moves in :func:`isolated_steps`, and what a linear step
+    point's steps: the set point moves in :func:`isolated_steps`, at least
+    :data:`STEP_RESPONSE_MIN_CHANGES` times per oscillation period, and what a linear step
     response of :data:`STEP_RESPONSE_PERIODS` oscillation periods (at most a third of
     the record) does not explain (:func:`setpoint_residual`) no
     longer oscillates (:func:`oscillation`, the same test) or is less than half the
@@ -290,7 +295,9 @@ def step_response_oscillation(x: np.ndarray, rec: Recording, osc: AcfOscillation
     a tight loop) is not a linear response to the steps and stays
     (``experiments/setpoint_response.py``).
     """
-    if rec.SP is None or not isolated_steps(rec, osc, len(x)):
+    if rec.SP is None or not isolated_steps(rec, osc, len(x)) or \
+            setpoint_changes(rec).size * osc.period_samples < \
+            STEP_RESPONSE_MIN_CHANGES * len(x):
         return False
     x = np.asarray(x, dtype=float)
     length = int(min(STEP_RESPONSE_PERIODS * osc.period_samples, len(x) / 3))
