@@ -244,9 +244,9 @@ def main(argv: list[str] | None = None) -> int:
               "Decision (1, 2 and 5 hold, no drop in balanced accuracy under occasional or "
               f"periodic set points): **{'met — the change stays' if decided else 'not met'}"
               "**." + ("" if decided else
-                       " The gate is off in the package (`stictionbench.estimators.detector."
-                       "STEP_RESPONSE_GATE = False`); its functions stay for this "
-                       "experiment."), ""]
+                       " The gate was left off in the package; a second try, scoped to "
+                       "set points that move at least every other oscillation period, is "
+                       "[setpoint_response_scope.md](setpoint_response_scope.md)."), ""]
     out = Path(a.out)
     write_text(out / "setpoint_response.md", "\n".join(lines))
     write_text(out / "setpoint_response.csv", df.to_csv(index=False, lineterminator="\n",

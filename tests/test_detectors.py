@@ -286,19 +286,19 @@ def test_step_response_gate_hands_back_a_healthy_loops_ringing():
 
 
 def test_step_response_gate_in_the_detectors_reason(monkeypatch):
-    """Off by default (the experiment's decision was not met); switched on, the
-    shape-based detectors give its reason."""
+    """On by default (setpoint_response_scope.py's decision): the shape-based detectors
+    give its reason; switched off, they judge the ringing."""
     e, rec = _ringing_under_steps()
     op = np.convolve(e, np.ones(5) / 5, mode="same")
     rec = Recording.from_arrays(rec.t, np.asarray(rec.PV), op, SP=np.asarray(rec.SP))
     gated = ("inconclusive", "the oscillation is the response to the set point's steps")
     for name in ("horch", "he", "area_ratio"):
         d = make(name).estimate(rec, x="OP", y="PV").diagnostics
-        assert (d["verdict"], d["reason"]) != gated, name
-    monkeypatch.setattr(detector, "STEP_RESPONSE_GATE", True)
+        assert (d["verdict"], d["reason"]) == gated, name
+    monkeypatch.setattr(detector, "STEP_RESPONSE_GATE", False)
     for name in ("horch", "he", "area_ratio"):
         d = make(name).estimate(rec, x="OP", y="PV").diagnostics
-        assert (d["verdict"], d["reason"]) == gated, name
+        assert (d["verdict"], d["reason"]) != gated, name
 
 
 # --------------------------------------------------------------------------- hägglund
