@@ -57,7 +57,8 @@ real loop's consensus verdict moves away from its label; otherwise it is reverte
 report says why.
 
 The stored report was made before the step-response gate
-(``experiments/setpoint_response.py``); run again, both arms hold that gate.
+(``experiments/setpoint_response_scope.py``); both arms switch that gate off, so a run
+again reproduces it.
 
 Run: ``.venv/bin/python experiments/setpoint_period.py [--loops 80] [--jobs 2]``; writes
 ``reports/real/setpoint_period.{md,csv}``.
@@ -155,13 +156,14 @@ def judge_loop(i: int, kind: str) -> list[dict]:
         row = {"window": name, "kind": kind, "case": case, "label": label,
                "samples": len(rec), "sp_period": detector.step_period(rec)}
         for arm in ("old", "new"):
-            keep = detector.step_period
+            keep = detector.step_period, detector.STEP_RESPONSE_GATE
+            detector.STEP_RESPONSE_GATE = False
             if arm == "old":
                 detector.step_period = _no_step_period
             try:
                 calls = window_calls(rec, name, methods=PUBLISHED)
             finally:
-                detector.step_period = keep
+                detector.step_period, detector.STEP_RESPONSE_GATE = keep
             for m in PUBLISHED:
                 row[f"{arm}_{m}"] = calls[m].verdict
             row[f"{arm}_consensus"] = cons.decide({m: calls[m].verdict
