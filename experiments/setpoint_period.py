@@ -203,6 +203,22 @@ def real_changes(before: Path, after: Path | None = None) -> tuple[int, list[str
     return n, moved
 
 
+def per_case_lines(df: pd.DataFrame) -> list[str]:
+    """The report's table of windows called stiction by set point, case and arm (each
+    published method and the consensus)."""
+    per_case = []
+    for (kind, case), d in df.groupby(["kind", "case"]):
+        for arm in ("old", "new"):
+            per_case.append({"set point": kind, "case": case, "gate": arm,
+                             "windows": len(d), "label": d.label.iloc[0],
+                             "consensus stiction": int((d[f"{arm}_consensus"]
+                                                        == "stiction").sum()),
+                             **{m: int((d[f"{arm}_{m}"] == "stiction").sum())
+                                for m in PUBLISHED}})
+    return ["Windows called stiction, by case (each method and the consensus):", "",
+            to_markdown(pd.DataFrame(per_case)), ""]
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--loops", type=int, default=80)
@@ -241,17 +257,7 @@ def main(argv: list[str] | None = None) -> int:
                           "gate period found": int(d.sp_period.notna().sum())})
     tab = pd.DataFrame(table)
     lines += [to_markdown(tab), ""]
-    per_case = []
-    for (kind, case), d in df.groupby(["kind", "case"]):
-        for arm in ("old", "new"):
-            per_case.append({"set point": kind, "case": case, "gate": arm,
-                             "windows": len(d), "label": d.label.iloc[0],
-                             "consensus stiction": int((d[f"{arm}_consensus"]
-                                                        == "stiction").sum()),
-                             **{m: int((d[f"{arm}_{m}"] == "stiction").sum())
-                                for m in PUBLISHED}})
-    lines += ["Windows called stiction, by case (each method and the consensus):", "",
-              to_markdown(pd.DataFrame(per_case)), ""]
+    lines += per_case_lines(df)
 
     per = df[df.kind == "periodic"]
     old, new = rates(per, "old"), rates(per, "new")

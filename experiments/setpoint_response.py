@@ -80,7 +80,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from setpoint_period import make_windows, rates, real_changes  # noqa: E402
+from setpoint_period import make_windows, per_case_lines, rates, real_changes  # noqa: E402
 
 from stictionbench.estimators import detector  # noqa: E402
 from stictionbench.io import write_text  # noqa: E402
@@ -154,17 +154,7 @@ def tables(df: pd.DataFrame) -> tuple[list[str], dict]:
                           "balanced_accuracy": round(r["balanced_accuracy"], 4),
                           "windows the gate fired on": gated})
     lines = [to_markdown(pd.DataFrame(table)), ""]
-    per_case = []
-    for (kind, case), d in df.groupby(["kind", "case"]):
-        for arm in ("old", "new"):
-            per_case.append({"set point": kind, "case": case, "gate": arm,
-                             "windows": len(d), "label": d.label.iloc[0],
-                             "consensus stiction": int((d[f"{arm}_consensus"]
-                                                        == "stiction").sum()),
-                             **{m: int((d[f"{arm}_{m}"] == "stiction").sum())
-                                for m in PUBLISHED}})
-    lines += ["Windows called stiction, by case (each method and the consensus):", "",
-              to_markdown(pd.DataFrame(per_case)), ""]
+    lines += per_case_lines(df)
     who = []
     for kind in KINDS:
         fa_w = df[(df.kind == kind) & (df.label == "no_stiction")
