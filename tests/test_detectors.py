@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 from scipy import signal as sps
+from scipy.linalg import lstsq
 
 from stictionbench.errors import InputError
 from stictionbench.estimators import available, detector, make
@@ -18,6 +19,7 @@ from stictionbench.estimators.detector import (
     isolated_steps,
     oscillation,
     setpoint_changes,
+    setpoint_residual,
     step_period,
     step_response_oscillation,
     three_way,
@@ -283,6 +285,28 @@ def test_step_response_gate_hands_back_a_healthy_loops_ringing():
     rec3 = Recording.from_arrays(rec.t, dense - e, np.zeros(e.size), SP=dense)
     assert not isolated_steps(rec3, osc, e.size)
     assert not step_response_oscillation(e, rec3, osc)
+
+
+def test_setpoint_residual_kept_between_detectors(monkeypatch):
+    """The last fit is reused for the same window, signal and length, and only then."""
+    e, rec = _ringing_under_steps()
+    detector._RESIDUAL[0] = None
+    first = setpoint_residual(e, rec, 150)
+    first[:] = 0.0                                   # a caller's change must not reach it
+    fits = []
+    monkeypatch.setattr(detector, "lstsq", lambda *a, **k: fits.append(1) or lstsq(*a, **k))
+    again = setpoint_residual(e.copy(), rec, 150)
+    assert not fits and np.abs(again).max() > 0.01
+    detector._RESIDUAL[0] = None
+    np.testing.assert_array_equal(again, setpoint_residual(e, rec, 150))
+    assert len(fits) == 1
+    setpoint_residual(e, rec, 149)                   # another length
+    e2, rec2 = _ringing_under_steps(cycle=1.0)
+    same_sp = Recording.from_arrays(rec.t, np.asarray(rec.PV), np.zeros(e.size),
+                                    SP=np.asarray(rec.SP))
+    setpoint_residual(e, same_sp, 149)               # another recording, equal arrays
+    setpoint_residual(e2, same_sp, 149)              # another signal
+    assert len(fits) == 4
 
 
 def test_step_response_gate_in_the_detectors_reason(monkeypatch):

@@ -270,11 +270,29 @@ def setpoint_residual(x: np.ndarray, rec: Recording, length: int) -> np.ndarray:
     >>> rec = Recording.from_arrays(n * 1.0, sp - e, np.zeros(1200), SP=sp)
     >>> bool(np.abs(setpoint_residual(e, rec, 200)).max() < 1e-9)
     True
+
+    The last answer is kept (:data:`_RESIDUAL`): the shape detectors judge one window's
+    control error in turn, and each asks for the same fit.
     """
+    x = np.asarray(x, dtype=float)
+    held = _RESIDUAL[0]
+    if held is not None and held[0] is rec and held[1] == length and \
+            np.array_equal(held[2], x):
+        return held[3].copy()
     d = np.r_[0.0, np.diff(np.asarray(rec.SP, dtype=float))]
     design = np.column_stack([np.ones(d.size), toeplitz(d, np.zeros(length))])
     coef = lstsq(design, x, lapack_driver="gelsy")[0]
-    return x - design @ coef
+    rest = x - design @ coef
+    _RESIDUAL[0] = (rec, length, x.copy(), rest.copy())
+    return rest
+
+
+#: the last :func:`setpoint_residual`, as ``(recording, length, x, residual)``: one
+#: window's Horch, He, area-ratio and Hägglund tests each asked for this least-squares fit
+#: (up to four of them per window, 0.15-0.9 s each at 1800 samples). The recording itself
+#: is held, not its ``id`` (a freed recording's id can be reused; a Recording's arrays are
+#: read-only), and the whole entry is replaced at once, so a reader never mixes two entries
+_RESIDUAL: list[tuple[Recording, int, np.ndarray, np.ndarray] | None] = [None]
 
 
 def step_response_oscillation(x: np.ndarray, rec: Recording, osc: AcfOscillation) -> bool:
