@@ -156,7 +156,8 @@ def read_stretches(path: str | os.PathLike[str], *, warn: bool = True) -> list[R
 
 def read_longest_stretch(path: str | os.PathLike[str], *, warn: bool = True) -> Recording:
     """The longest usable stretch of a recording (:func:`read_stretches`); a warning on
-    stderr names the rows used and the stretches left out."""
+    stderr names the rows used and the stretches left out, or the rows used when a long
+    gap at the start or the end was cut off."""
     parts = read_stretches(path, warn=warn)
     best = max(parts, key=len)
     if len(parts) > 1 and warn:
@@ -166,6 +167,11 @@ def read_longest_stretch(path: str | os.PathLike[str], *, warn: bool = True) -> 
         user_warning(f"{path}: gaps of more than {MAX_INTERPOLATED_GAP} missing samples cut "
                      f"the record into {len(parts)} usable stretches; using the longest, "
                      f"rows {rows[0]}–{rows[1]} ({len(best)} samples); not used: {others}")
+    elif "rows" in best.meta and warn:  # one stretch: a long gap at the start or the end
+        rows = best.meta["rows"]
+        user_warning(f"{path}: using rows {rows[0]}–{rows[1]} ({len(best)} samples); the "
+                     f"rows before or after them are a gap of more than "
+                     f"{MAX_INTERPOLATED_GAP} missing samples")
     return best
 
 

@@ -58,6 +58,38 @@ def positive(key: str, value: object) -> float:
     return number(key, value, low=0.0, strict=True)
 
 
+def seed_number(key: str, value: object) -> int:
+    """A random seed from a config value or command-line text: a whole number ``≥ 0``
+    (``3``, ``"3"``, ``3.0``); ``1.5``, ``"abc"`` or ``True`` are refused rather than
+    rounded, so that the run a user names is the run they get.
+
+    Raises
+    ------
+    InputError
+        Naming ``key``, one line.
+
+    Examples
+    --------
+    >>> seed_number("seed", "7"), seed_number("seed", 7.0)
+    (7, 7)
+    >>> seed_number("seed", 1.5)
+    Traceback (most recent call last):
+    ...
+    stictionbench.errors.InputError: seed: not an integer (1.5)
+    """
+    if isinstance(value, bool):
+        raise InputError(f"{key}: not an integer ({value!r})")
+    try:
+        v = float(str(value).strip()) if isinstance(value, str) else float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise InputError(f"{key}: not an integer ({value!r})") from None
+    if not math.isfinite(v) or v != int(v):
+        raise InputError(f"{key}: not an integer ({value!r})")
+    if v < 0:
+        raise InputError(f"{key}: must be ≥ 0, got {value!r}")
+    return int(v)
+
+
 # --------------------------------------------------------------------------- signals
 
 
@@ -251,6 +283,24 @@ def jobs_count(text: str) -> int:
                                          "core")
     cores = os.cpu_count() or 1
     return min(n, cores) if n > 0 else max(cores + 1 + n, 1)
+
+
+def count_arg(text: str) -> int:
+    """A count of repetitions on the command line (an argparse ``type``): a whole
+    number ``≥ 0``.
+
+    >>> count_arg("200")
+    200
+    """
+    import argparse
+
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"must be ≥ 0, got {n}")
+    return n
 
 
 # --------------------------------------------------------------------------- parameters

@@ -116,3 +116,52 @@ def test_a_folder_with_no_usable_recording_says_why(tmp_path):
         "\n".join((tmp_path / "short.csv").read_text().splitlines()[:40]) + "\n")
     with pytest.raises(InputError, match="no usable recordings.*short.csv"):
         run_batch(str(tmp_path), None)
+
+
+def test_seeds_are_whole_numbers_everywhere(tmp_path, capsys):
+    from stictionbench.validation import seed_number
+
+    assert seed_number("seed", "3") == 3 and seed_number("seed", 3.0) == 3
+    for bad in ("1.5", 1.5, "abc", True, -1, float("nan")):
+        with pytest.raises(InputError, match="seed"):
+            seed_number("seed", bad)
+    assert main(["simulate", "seed=1.5", f"out={tmp_path / 's.csv'}"]) == 2
+    assert "not an integer" in capsys.readouterr().err
+    assert not (tmp_path / "s.csv").exists()
+
+
+def test_a_long_gap_at_the_start_is_said(tmp_path, capsys):
+    from stictionbench.io import read_longest_stretch
+
+    rec = _loop()
+    frame = rec.to_frame()
+    frame.loc[: 99, "PV"] = np.nan                       # 100 empty rows before the data
+    frame.to_csv(tmp_path / "r.csv", index=False)
+    got = read_longest_stretch(tmp_path / "r.csv")
+    err = capsys.readouterr().err
+    assert len(got) == len(frame) - 100
+    assert "using rows 102–" in err and "gap of more than" in err
+
+
+def test_compare_says_which_labelled_loop_it_left_out(tmp_path, capsys):
+    from stictionbench.realdata.comparison import load_folder
+
+    write_recording(_loop(), tmp_path / "good.csv")
+    (tmp_path / "bad.csv").write_text("t,PV,OP\n0,abc,1\n1,2,3\n")
+    (tmp_path / "labels.csv").write_text("loop,label\ngood,stiction\nbad,no_stiction\n")
+    assert list(load_folder(tmp_path)) == ["good"]
+    err = capsys.readouterr().err
+    assert "1 labelled loop(s) left out" in err and "bad.csv" in err
+
+
+@pytest.mark.parametrize("reps", ["-3", "x"])
+def test_null_reps_is_a_count(tmp_path, capsys, reps):
+    assert main(["oscillation-benchmark", "--null-reps", reps, "--out", str(tmp_path / "o")]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_estimate_names_an_unknown_signal_first(tmp_path, capsys):
+    write_recording(_loop(), tmp_path / "r.csv")
+    assert main(["estimate", str(tmp_path / "r.csv"), "--method", "xcorr", "--x", "ZZ"]) == 2
+    assert "unknown signal 'ZZ'" in capsys.readouterr().err

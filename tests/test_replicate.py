@@ -79,6 +79,32 @@ def test_bad_override_exits_2(tmp_path, capsys):
     assert "unknown config key" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("override, said", [
+    ("seed=abc", "seed: not an integer"),
+    ("seed=1.5", "seed: not an integer"),
+    ("duration=abc", "duration: not a number"),
+    ("sample_time=0", "sample_time: must be positive"),
+    ("thresholds.linear_r2=abc", "thresholds.linear_r2: not a number"),
+    ("thresholds.swing_fraction=2", "thresholds.swing_fraction: must be at most 1"),
+    ("estimators.xcorr.max_delay=abc", "max_delay"),
+    ("estimators.xcorr=abc", "estimators.xcorr: expected a mapping"),
+])
+def test_bad_values_are_one_line_before_any_work(tmp_path, capsys, override, said):
+    """Checked where the config is composed: no progress bar, no traceback, no output."""
+    assert main(["replicate", f"out_dir={tmp_path / 'x'}", override]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and said in err[0], err
+    assert not (tmp_path / "x").exists()
+
+
+def test_an_out_dir_that_is_a_file_is_refused_first(tmp_path, capsys):
+    (tmp_path / "f").write_text("keep")
+    assert main(["replicate", f"out_dir={tmp_path / 'f'}"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "exists and is not a directory" in err[0]
+    assert (tmp_path / "f").read_text() == "keep"
+
+
 def test_partial_replicate_touches_only_its_case(two_runs, tmp_path):
     a, _ = two_runs
     out = tmp_path / "r"

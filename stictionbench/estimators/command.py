@@ -93,6 +93,7 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     check_writable([args.json])
     est = build_estimator(args.method, args.param, args.overrides)
     rec = read_one(args.recording, loop=args.loop)
+    rec.signal(args.x or est.default_x)              # an unknown name is said before MV's absence
     yname = args.y or est.default_y
     if yname == "MV" and getattr(rec, "MV", None) is None:
         # the paper's estimators compare OP with the valve position, which plants rarely

@@ -12,9 +12,11 @@ from typing import Any
 import numpy as np
 from omegaconf import OmegaConf
 
+from ..errors import InputError
 from ..estimators import EstimateResult, make
 from ..recording import Recording
 from ..sim.compose import simulate
+from ..validation import number, positive, seed_number
 
 CASES = ("linear", "tight", "disturbance", "stiction")
 NON_STICTION = ("linear", "tight", "disturbance")
@@ -97,6 +99,35 @@ def half_cycles(x: np.ndarray) -> int:
 def estimator_params(cfg: Any) -> dict[str, dict[str, Any]]:
     """``cfg.estimators`` of ``conf/experiment/paper.yaml`` as plain dicts."""
     return OmegaConf.to_container(cfg.estimators, resolve=True)  # type: ignore[return-value]
+
+
+def check_config(cfg: Any) -> None:
+    """Check the replication's config (``conf/experiment/paper.yaml`` with the user's
+    overrides) where it is composed, before any case runs: the seed a whole number, the
+    times positive, the remark thresholds numbers in range and each estimator's
+    parameters accepted by that estimator (:func:`~stictionbench.estimators.make`).
+
+    Raises
+    ------
+    InputError
+        One line naming the key, e.g. ``seed: not a whole number ('abc')``.
+    """
+    seed_number("seed", cfg.seed)
+    for key in ("duration", "sample_time", "servo_window"):
+        positive(key, cfg[key])
+    th = cfg.thresholds
+    if seed_number("thresholds.oscillation_swings", th.oscillation_swings) < 1:
+        raise InputError("thresholds.oscillation_swings: must be ≥ 1, got "
+                         f"{th.oscillation_swings!r}")
+    for key in ("swing_fraction", "linear_r2"):
+        if number(f"thresholds.{key}", th[key], low=0.0, strict=True) > 1:
+            raise InputError(f"thresholds.{key}: must be at most 1, got {th[key]!r}")
+    number("thresholds.delay_samples", th.delay_samples, low=0.0)
+    for name, params in estimator_params(cfg).items():
+        if not isinstance(params, dict):
+            raise InputError(f"estimators.{name}: expected a mapping of parameters, got "
+                             f"{params!r}")
+        make(name, **params)
 
 
 def run_case(case: str, cfg: Any, seed: int | None = None, **overrides: Any) -> CaseResult:

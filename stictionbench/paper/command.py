@@ -20,7 +20,8 @@ from ..config import compose
 from ..errors import InputError
 from ..io import atomic_directory, write_text
 from ..reports.tables import write_table
-from .cases import CASE_TITLES, CASES, PAPER_TABLE, TABLE_NUMBER, run_case
+from ..validation import check_writable
+from .cases import CASE_TITLES, CASES, PAPER_TABLE, TABLE_NUMBER, check_config, run_case
 
 
 def _check_cases(cases: list[str]) -> None:
@@ -36,8 +37,10 @@ def replicate(overrides: list[str] | tuple[str, ...] = ()) -> dict[str, Any]:
     cfg = compose(list(overrides), config_name="experiment/paper")
     cases = [str(c) for c in cfg.cases]
     _check_cases(cases)
+    check_config(cfg)
     full = set(cases) == set(CASES)
     out = Path(str(cfg.out_dir))
+    check_writable(dirs=[out])
     with tqdm(total=len(cases) + (6 if full else 1), desc="replicate", unit="step") as bar, \
             atomic_directory(out) as stage:
         results = []

@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ..validation import jobs_count
+from ..validation import count_arg, jobs_count
 
 
 def _lazy(module: str, name: str):
@@ -38,8 +38,9 @@ def add_command(subparsers: Any) -> None:
                         "benchmark.mat beside the repository)")
     o.add_argument("--out", default=None, metavar="DIR",
                    help="output folder (default: reports/real/oscillation)")
-    o.add_argument("--null-reps", type=int, default=200, metavar="N",
-                   help="synthetic noise records per kind for the false-alarm check")
+    o.add_argument("--null-reps", type=count_arg, default=200, metavar="N",
+                   help="synthetic noise records per kind for the false-alarm check "
+                        "(0 skips it)")
     o.add_argument("--progress", action="store_true", help="show a progress bar")
     o.set_defaults(func=_lazy("screening", "cmd_oscillation_benchmark"))
 

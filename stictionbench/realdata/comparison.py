@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..errors import InputError
+from ..errors import InputError, user_warning
 
 #: Damarla et al. (2026) on the ISDB loops that are also in ../shared/data/isdb: their
 #: published false alarms (every stiction loop of their test set was found)
@@ -29,7 +29,7 @@ COLOURS = {"stiction": "#d62728", "no_stiction": "#2ca02c", "inconclusive": "#dd
 def load_folder(directory: str | Path) -> dict[str, Any]:
     """The recordings of one labelled folder (``labels.csv`` inside), checked before any
     work is done on any folder."""
-    from .datasets import load_csv_dir
+    from .datasets import load_csv_dir, read_labels
 
     d = Path(directory)
     labels = d / "labels.csv"
@@ -37,9 +37,15 @@ def load_folder(directory: str | Path) -> dict[str, Any]:
         raise InputError(f"{d}: no such directory")
     if not labels.is_file():
         raise InputError(f"{d}: no labels.csv (compare needs labelled loops)")
-    recs, _ = load_csv_dir(d, labels=str(labels), warn=False)
+    recs, skipped = load_csv_dir(d, labels=str(labels), warn=False)
     if not recs:
         raise InputError(f"{d}: no recordings")
+    table = read_labels(labels)
+    lost = [(f, why) for f, why in skipped if Path(f).stem in table.index]
+    if lost:  # a labelled loop left out changes every rate: say which and why
+        user_warning(f"{d}: {len(lost)} labelled loop(s) left out of the comparison: "
+                     + "; ".join(f"{f} ({why})" for f, why in lost[:3])
+                     + (" …" if len(lost) > 3 else ""))
     return recs
 
 

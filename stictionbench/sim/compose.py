@@ -18,7 +18,7 @@ from omegaconf import DictConfig, OmegaConf
 from ..config import compose
 from ..errors import InputError
 from ..recording import Recording
-from ..validation import number
+from ..validation import number, seed_number
 from .blocks import FOPDT, Disturbance, PIController, Sensor, SetPoint
 from .kernel import run_loop
 from .valves import Valve, init_state
@@ -137,12 +137,7 @@ def simulate_config(cfg: DictConfig) -> Recording:
     duration = _number(cfg, "duration")
     dt = _number(cfg, "dt")
     Ts = _number(cfg, "sample_time")
-    try:
-        seed = int(cfg.seed)
-    except (TypeError, ValueError):
-        raise InputError(f"seed: not an integer ({cfg.seed!r})") from None
-    if seed < 0:
-        raise InputError(f"seed: must be ≥ 0, got {seed}")
+    seed = seed_number("seed", cfg.seed)
     b = build(cfg)
     ctrl = b["controller"].params()
     hc = float(ctrl[2])
