@@ -121,3 +121,45 @@ def method_rates(loops: pd.DataFrame, methods: Iterable[str]) -> pd.DataFrame:
             "correct_hi": wilson(int(correct.sum()), n)[1],
         })
     return pd.DataFrame(rows)
+
+
+def unreached(loops: pd.DataFrame, methods: Iterable[str]) -> tuple[pd.DataFrame, float]:
+    """The labelled stiction loops that none of ``methods`` calls stiction, with each
+    method's reason, and the balanced accuracy no vote of those methods can exceed.
+
+    A vote (any subset, share or number of votes, :mod:`.consensus`) can flag only a loop
+    that at least one voter flags, so it detects at most the ``k`` of ``n`` stiction loops
+    some method flags, and its balanced accuracy (an inconclusive verdict counted as not
+    flagged) is at most ``(k / n + 1) / 2``, the value with no false alarm at all.
+
+    Returns
+    -------
+    (table, bound)
+        One row per stiction loop no method flags (``loop``, ``loop_type``, ``reasons``:
+        the distinct reasons, each with the methods that gave it), and the bound (nan
+        when there is no labelled stiction loop).
+
+    Examples
+    --------
+    >>> loops = pd.DataFrame({"loop": ["a", "b"], "label": ["stiction"] * 2,
+    ...                       "loop_type": ["F", "A"], "m": ["stiction", "inconclusive"],
+    ...                       "m_reason": ["", "no oscillation"]})
+    >>> table, bound = unreached(loops, ["m"])
+    >>> list(table.loop), bound
+    (['b'], 0.75)
+    """
+    methods = list(methods)
+    sticky = loops[loops["label"].map(binary) == "stiction"]
+    if sticky.empty:
+        return pd.DataFrame(columns=["loop", "loop_type", "reasons"]), float("nan")
+    flagged = (sticky[methods] == "stiction").any(axis=1)
+    rows = []
+    for _, r in sticky[~flagged].iterrows():
+        why: dict[str, list[str]] = {}
+        for m in methods:
+            text = str(r.get(f"{m}_reason", "") or r[m])
+            why.setdefault(text, []).append(m)
+        rows.append({"loop": r["loop"], "loop_type": r.get("loop_type", ""),
+                     "reasons": "; ".join(f"{t} ({', '.join(ms)})" for t, ms in why.items())})
+    bound = 0.5 * (float(flagged.sum()) / len(sticky) + 1.0)
+    return pd.DataFrame(rows, columns=["loop", "loop_type", "reasons"]), bound

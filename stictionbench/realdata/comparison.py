@@ -11,6 +11,7 @@ intervals, the cross-dataset table), ``comparison_<dataset>.csv``, ``methods.csv
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import Any
 
@@ -127,7 +128,31 @@ def report_md(sets, rates, cross, default, methods) -> str:
               to_markdown(cross), "",
               f"Shipped default (trained on all datasets here, used by `batch`): "
               f"`{default.to_dict()}`.", ""]
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _unreached_lines(sets)) + "\n"
+
+
+def _unreached_lines(sets: dict[str, pd.DataFrame]) -> list[str]:
+    """The stiction loops no published method flags, and the bound they set on any vote
+    (:func:`.compare.unreached`)."""
+    from ..reports.tables import to_markdown
+    from .compare import unreached
+    from .panel import PUBLISHED
+
+    lines = ["## What no vote of these methods can reach", "",
+             "A combined verdict can flag only a loop that at least one published method "
+             "flags. The labelled stiction loops that none flags, with every method's "
+             "reason, and the highest balanced accuracy by loop that any vote of the "
+             "published methods could reach (all the others found, no false alarm):", ""]
+    for name, loops in sets.items():
+        table, bound = unreached(loops, PUBLISHED)
+        if math.isnan(bound):
+            continue
+        lines += [f"**{name}**: at most {bound:.3f}."
+                  + ("" if table.empty else f" Not flagged by any method: {len(table)} of "
+                     f"{int((loops['label'] == 'stiction').sum())} stiction loops."), ""]
+        if not table.empty:
+            lines += [to_markdown(table), ""]
+    return lines
 
 
 def _damarla(isdb: pd.DataFrame, methods: list[str]) -> list[str]:
