@@ -1131,3 +1131,28 @@ def test_mismatch_band_is_quiet_when_op_sits_flat_at_a_limit():
         warnings.simplefilter("error", RuntimeWarning)
         band, info = mismatch_band(r, 1.0, 1.0, op=op)
     assert np.isnan(info["coherence"]).all()
+
+
+def test_a_dead_band_named_on_the_stiction_fit_says_so(tmp_path, capsys):
+    """The refinery's sticky flow loop repeated five times (a newcomer's test input):
+    the stiction fit beats the nominal, J is not resolved, so the dead band is named
+    while its own fit is worse than the nominal; the note says why, on stderr and in
+    the JSON, and the verdict is the nested rule's (unchanged)."""
+    from conftest import DATA, require
+
+    src = require(DATA / "plant" / "2111FIC46005_0902_0003.csv")
+    import pandas as pd
+
+    one = pd.read_csv(src)
+    n = len(one)
+    tiled = pd.concat([one.assign(t=one.t + k * n * 10.0) for k in range(5)])
+    tiled.to_csv(tmp_path / "tile5.csv", index=False)
+    assert main(["diagnose", str(tmp_path / "tile5.csv"), "--json",
+                 str(tmp_path / "o.json")]) == 0
+    out = json.loads((tmp_path / "o.json").read_text())
+    rows = {r["physics"]: r for r in out["ranking"]}
+    assert out["missing_physics"] == "deadband"
+    assert rows["stiction"]["significant"] and not rows["deadband"]["significant"]
+    note = out["details"]["valve_family_note"]
+    assert "named on the stiction fit" in note and "dead band's own fit" in note
+    assert "warning: a sticky valve is named on the stiction fit" in capsys.readouterr().err

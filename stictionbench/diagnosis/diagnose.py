@@ -111,6 +111,7 @@ from .routes import (
     name_line,
     pairing_answer,
     pairing_test,
+    valve_family_note,
 )
 
 # the answer's type and the routes after the ranking live in .result and .routes; they
@@ -704,7 +705,7 @@ def own_resolution(rec: Recording, model_given: bool) -> frozenset[str]:
 #: prints them on stderr, the report lists them): regulatory data without a model, a
 #: nominal model that does not explain PV, a record too short for the loop's speed
 WARNING_KEYS = ("warning", "model_warning", "record_warning", "limit_warning",
-                "controller_rate_warning", "pairing_warning")
+                "controller_rate_warning", "pairing_warning", "valve_family_note")
 
 #: a PI executing this many times per recorded sample or more gets the controller-rate
 #: warning (:func:`controller_rate_warning`)
@@ -960,6 +961,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d.details["pairing_warning"] = pairing["warning"]
     if pairing_check:
         d = pairing_answer(d, alpha)
+    if (note := valve_family_note(d)) is not None:
+        d.details["valve_family_note"] = note
     d.details["seconds"] = time.perf_counter() - t0
     return d
 

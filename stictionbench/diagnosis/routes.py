@@ -26,7 +26,7 @@ from .result import Diagnosis
 
 __all__ = ["DECISION_ROUTES", "RESOLUTION_FLOOR", "after_comparison", "decided_by",
            "floor_answer", "name_gain_error", "name_held_limit", "name_line",
-           "pairing_answer", "pairing_test"]
+           "pairing_answer", "pairing_test", "valve_family_note"]
 
 #: below this validation NRMSE of the nominal model nothing is named
 #: (:func:`floor_answer`)
@@ -92,6 +92,50 @@ def _hold_back(d: Diagnosis, key: str, info: dict[str, Any]) -> Diagnosis:
     d.fit = fit
     d.details["decided_by"] = decided_by(d)
     return d
+
+
+def valve_family_note(d: Diagnosis) -> str | None:
+    """Why a dead band is named whose own fit does not pass its test, else None.
+
+    Stiction and the dead band are one nested family (:func:`.evidence.select`): once
+    either passes its test against the nominal model, the slip-jump test names the
+    member, and an unresolved ``J`` names the dead band. When the dead band's own row
+    did not pass (its validation NRMSE need not even improve) while the stiction fit
+    did, the answer stands on the stiction fit's evidence, and the summary's
+    "validation NRMSE a -> b" (the named fit's) can show a worse fit. The note says so,
+    with both fits and the slip-jump p-value, so the line does not read as a
+    contradiction.
+
+    Examples
+    --------
+    >>> from stictionbench.diagnosis.model import NominalModel
+    >>> rows = [{"physics": "deadband", "significant": False, "nrmse_validation": 0.75},
+    ...         {"physics": "stiction", "significant": True, "nrmse_validation": 0.59}]
+    >>> d = Diagnosis(True, "deadband", {}, {"nominal": 0.67, "improved": 0.75}, [], [],
+    ...               rows, NominalModel(1.0, 10.0, 1.0), {},
+    ...               details={"decided_by": "likelihood_tests"},
+    ...               tests={"slip_jump_zero": {"p_value": 0.2}})
+    >>> valve_family_note(d)[:44]
+    'a sticky valve is named on the stiction fit:'
+    >>> d.ranking[0]["significant"] = True
+    >>> valve_family_note(d) is None
+    True
+    """
+    if d.missing_physics != "deadband" or d.details.get("decided_by") != "likelihood_tests":
+        return None
+    rows = {r.get("physics"): r for r in d.ranking or []}
+    db, st = rows.get("deadband"), rows.get("stiction")
+    if db is None or st is None or db.get("significant") or not st.get("significant"):
+        return None
+    p = (d.tests.get("slip_jump_zero") or {}).get("p_value")
+    why = ("its slip jump J is not resolved" + (f" (p = {p:.2g})" if p is not None else "")
+           + " or is small against S")
+    return (f"a sticky valve is named on the stiction fit: it beats the nominal model "
+            f"(validation NRMSE {d.fit.get('nominal', float('nan')):.3f} -> "
+            f"{st.get('nrmse_validation', float('nan')):.3f}), but {why}, so the "
+            f"family's simpler member, the dead band, is named; the dead band's own fit "
+            f"does not pass its test (validation NRMSE "
+            f"{db.get('nrmse_validation', float('nan')):.3f})")
 
 
 def pairing_test(rec: Any, alpha: float) -> dict[str, Any]:
