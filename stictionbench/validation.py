@@ -58,10 +58,10 @@ def positive(key: str, value: object) -> float:
     return number(key, value, low=0.0, strict=True)
 
 
-def seed_number(key: str, value: object) -> int:
-    """A random seed from a config value or command-line text: a whole number ``≥ 0``
-    (``3``, ``"3"``, ``3.0``); ``1.5``, ``"abc"`` or ``True`` are refused rather than
-    rounded, so that the run a user names is the run they get.
+def whole_number(key: str, value: object, low: int = 0) -> int:
+    """A seed or a count from a config value or command-line text: a whole number
+    ``≥ low`` (``3``, ``"3"``, ``3.0``); ``1.5``, ``"abc"`` or ``True`` are refused rather
+    than rounded, so that the run a user names is the run they get.
 
     Raises
     ------
@@ -70,9 +70,9 @@ def seed_number(key: str, value: object) -> int:
 
     Examples
     --------
-    >>> seed_number("seed", "7"), seed_number("seed", 7.0)
+    >>> whole_number("seed", "7"), whole_number("seed", 7.0)
     (7, 7)
-    >>> seed_number("seed", 1.5)
+    >>> whole_number("seed", 1.5)
     Traceback (most recent call last):
     ...
     stictionbench.errors.InputError: seed: not an integer (1.5)
@@ -85,8 +85,8 @@ def seed_number(key: str, value: object) -> int:
         raise InputError(f"{key}: not an integer ({value!r})") from None
     if not math.isfinite(v) or v != int(v):
         raise InputError(f"{key}: not an integer ({value!r})")
-    if v < 0:
-        raise InputError(f"{key}: must be ≥ 0, got {value!r}")
+    if v < low:
+        raise InputError(f"{key}: must be ≥ {low}, got {value!r}")
     return int(v)
 
 
@@ -287,7 +287,7 @@ def jobs_count(text: str) -> int:
 
 def count_arg(text: str) -> int:
     """A count of repetitions on the command line (an argparse ``type``): a whole
-    number ``≥ 0``.
+    number ``≥ 0`` (:func:`whole_number`).
 
     >>> count_arg("200")
     200
@@ -295,12 +295,9 @@ def count_arg(text: str) -> int:
     import argparse
 
     try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"must be ≥ 0, got {n}")
-    return n
+        return whole_number("count", text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("count: ")) from None
 
 
 # --------------------------------------------------------------------------- parameters

@@ -119,12 +119,12 @@ def test_a_folder_with_no_usable_recording_says_why(tmp_path):
 
 
 def test_seeds_are_whole_numbers_everywhere(tmp_path, capsys):
-    from stictionbench.validation import seed_number
+    from stictionbench.validation import whole_number
 
-    assert seed_number("seed", "3") == 3 and seed_number("seed", 3.0) == 3
+    assert whole_number("seed", "3") == 3 and whole_number("seed", 3.0) == 3
     for bad in ("1.5", 1.5, "abc", True, -1, float("nan")):
         with pytest.raises(InputError, match="seed"):
-            seed_number("seed", bad)
+            whole_number("seed", bad)
     assert main(["simulate", "seed=1.5", f"out={tmp_path / 's.csv'}"]) == 2
     assert "not an integer" in capsys.readouterr().err
     assert not (tmp_path / "s.csv").exists()

@@ -86,6 +86,7 @@ def test_bad_override_exits_2(tmp_path, capsys):
     ("sample_time=0", "sample_time: must be positive"),
     ("thresholds.linear_r2=abc", "thresholds.linear_r2: not a number"),
     ("thresholds.swing_fraction=2", "thresholds.swing_fraction: must be at most 1"),
+    ("thresholds.oscillation_swings=0", "thresholds.oscillation_swings: must be ≥ 1"),
     ("estimators.xcorr.max_delay=abc", "max_delay"),
     ("estimators.xcorr=abc", "estimators.xcorr: expected a mapping"),
 ])

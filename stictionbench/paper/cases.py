@@ -16,7 +16,7 @@ from ..errors import InputError
 from ..estimators import EstimateResult, make
 from ..recording import Recording
 from ..sim.compose import simulate
-from ..validation import number, positive, seed_number
+from ..validation import number, positive, whole_number
 
 CASES = ("linear", "tight", "disturbance", "stiction")
 NON_STICTION = ("linear", "tight", "disturbance")
@@ -112,13 +112,11 @@ def check_config(cfg: Any) -> None:
     InputError
         One line naming the key, e.g. ``seed: not a whole number ('abc')``.
     """
-    seed_number("seed", cfg.seed)
+    whole_number("seed", cfg.seed)
     for key in ("duration", "sample_time", "servo_window"):
         positive(key, cfg[key])
     th = cfg.thresholds
-    if seed_number("thresholds.oscillation_swings", th.oscillation_swings) < 1:
-        raise InputError("thresholds.oscillation_swings: must be ≥ 1, got "
-                         f"{th.oscillation_swings!r}")
+    whole_number("thresholds.oscillation_swings", th.oscillation_swings, low=1)
     for key in ("swing_fraction", "linear_r2"):
         if number(f"thresholds.{key}", th[key], low=0.0, strict=True) > 1:
             raise InputError(f"thresholds.{key}: must be at most 1, got {th[key]!r}")

@@ -49,7 +49,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise InputError("simulate needs out=PATH.csv or out=PATH.parquet")
     if Path(out).suffix.lower() not in (".csv", ".parquet"):
         raise InputError(f"out={out}: use a .csv or .parquet file")
-    from ..validation import check_writable, positive, seed_number
+    from ..validation import check_writable, positive, whole_number
 
     check_writable([out])
     case = special.get("case", "stiction")
@@ -57,7 +57,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         d = number("duration", special["duration"], low=0.0, strict=True)
         overrides.append(f"duration={d}")
     if "seed" in special:
-        overrides.append(f"seed={seed_number('seed', special['seed'])}")
+        overrides.append(f"seed={whole_number('seed', special['seed'])}")
     cfg = config_for(case, overrides)
     duration, Ts = positive("duration", cfg.duration), positive("sample_time", cfg.sample_time)
     n = duration / Ts

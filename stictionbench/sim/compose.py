@@ -18,7 +18,7 @@ from omegaconf import DictConfig, OmegaConf
 from ..config import compose
 from ..errors import InputError
 from ..recording import Recording
-from ..validation import number, seed_number
+from ..validation import number, whole_number
 from .blocks import FOPDT, Disturbance, PIController, Sensor, SetPoint
 from .kernel import run_loop
 from .valves import Valve, init_state
@@ -137,7 +137,7 @@ def simulate_config(cfg: DictConfig) -> Recording:
     duration = _number(cfg, "duration")
     dt = _number(cfg, "dt")
     Ts = _number(cfg, "sample_time")
-    seed = seed_number("seed", cfg.seed)
+    seed = whole_number("seed", cfg.seed)
     b = build(cfg)
     ctrl = b["controller"].params()
     hc = float(ctrl[2])
