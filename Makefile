@@ -62,6 +62,7 @@ real: venv
 	$(BIN)/python experiments/two_stage_isdb.py
 	$(BIN)/python experiments/simulated_loops.py
 	$(BIN)/python experiments/flow_loops.py
+	$(BIN)/python experiments/slip_exit.py
 	$(BIN)/python experiments/level_loops.py
 	$(BIN)/python experiments/consensus_one_se.py
 	$(BIN)/python experiments/refinery_rate_loops.py

@@ -23,6 +23,7 @@ from ..validation import Constraint, Interval, TypeOf
 from .base import EstimateResult
 from .detector import StictionDetector
 from .noise_floor import difference_noise
+from .slip_exit import NO_DIRECTION, controller_direction, slip_ended, slip_note
 
 
 @numba.njit(cache=True)
@@ -132,6 +133,11 @@ class Kano(StictionDetector):
         The loop controls a flow: PV may replace an unrecorded MV.
     noise_factor : float
         The noise floor in standard deviations of the first differences' noise.
+    slip_exit : bool
+        Where PV stands in for MV, count only the sticky stretches that end in a slip
+        the way OP pushed (:mod:`.slip_exit`: a PI holding a flow against a load also
+        moves OP while PV stays in its band; only a sticky valve ends the stretch with
+        a jump). Our addition, off by default (``reports/real/slip_exit.md``).
 
     References
     ----------
@@ -152,11 +158,13 @@ class Kano(StictionDetector):
         "threshold": [Interval(Real, 0, 1)],
         "flow_loop": [TypeOf(bool)],
         "noise_factor": [Interval(Real, 0, None)],
+        "slip_exit": [TypeOf(bool)],
     }
 
     def __init__(self, mv_tolerance: float = 0.25, op_tolerance: float = 1.0,
                  threshold: float = 0.25, flow_loop: bool = False,
-                 noise_factor: float = 3.0) -> None:
+                 noise_factor: float = 3.0, slip_exit: bool = False) -> None:
+        self.slip_exit = slip_exit
         self.mv_tolerance = mv_tolerance
         self.op_tolerance = op_tolerance
         self.threshold = threshold
@@ -167,7 +175,7 @@ class Kano(StictionDetector):
                   ) -> EstimateResult:
         rule = {"threshold": self.threshold, "mv_tolerance": self.mv_tolerance,
                 "op_tolerance": self.op_tolerance, "flow_loop": self.flow_loop,
-                "noise_factor": self.noise_factor}
+                "noise_factor": self.noise_factor, "slip_exit": self.slip_exit}
         nan = float("nan")
         y, valve = self.valve_signal(y, rec)
         if y is None:
@@ -183,11 +191,23 @@ class Kano(StictionDetector):
         band = floor if valve == "PV" else max(self.mv_tolerance * pct, floor)
         sections, sticky = sticky_sections(x, y, band, op_tol)
         lengths = sections[:, 1] - sections[:, 0]
+        checked, reason = {}, None
+        if self.slip_exit and valve == "PV":
+            direction = controller_direction(x, y, rec.SP)
+            if direction == 0:
+                return self._result(nan, None, NO_DIRECTION, valve=valve, **rule)
+            steady = float(lengths[sticky].sum() / x.size)
+            sticky = sticky.copy()
+            sticky[sticky] = slip_ended(x, y, sections[sticky], band, direction)
+            checked, reason = slip_note(steady, float(lengths[sticky].sum() / x.size),
+                                        self.threshold, direction)
         rho = float(lengths[sticky].sum() / x.size)
         decision = rho > self.threshold
         return self._result(
-            rho, decision, "MV stuck while OP moves" if decision else "MV follows OP",
-            valve=valve, band=band, n_sections=int(sections.shape[0]), n_sticky=int(sticky.sum()),
+            rho, decision, reason or ("MV stuck while OP moves" if decision
+                                      else "MV follows OP"),
+            valve=valve, band=band, **checked, n_sections=int(sections.shape[0]),
+            n_sticky=int(sticky.sum()),
             constant_fraction=float(lengths.sum() / x.size), **rule,
             sections=sections[sticky])
 

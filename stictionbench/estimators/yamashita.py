@@ -21,6 +21,7 @@ from .base import EstimateResult
 from .detector import StictionDetector
 from .kano import finite_pair
 from .noise_floor import difference_noise, measured_samples
+from .slip_exit import NO_DIRECTION, controller_direction, slip_ended, slip_note
 
 SYMBOLS = ("D", "S", "I")
 
@@ -38,11 +39,50 @@ def symbols(x: np.ndarray, tolerance: float, noise_factor: float = 3.0) -> np.nd
     'IIIIISSSSDDD'
     """
     d = np.diff(np.asarray(x, dtype=float))
-    band = max(tolerance * float(d.std()), noise_factor * difference_noise(x))
+    band = steady_band(x, tolerance, noise_factor)
     q = np.zeros(d.size, dtype=int)
     q[d > band] = 1
     q[d < -band] = -1
     return q
+
+
+def steady_band(x: np.ndarray, tolerance: float, noise_factor: float = 3.0) -> float:
+    """The band within which a first difference of ``x`` reads as steady
+    (:func:`symbols`): ``tolerance`` standard deviations of the differences or
+    ``noise_factor`` times their noise level, whichever is larger."""
+    d = np.diff(np.asarray(x, dtype=float))
+    return max(tolerance * float(d.std()), noise_factor * difference_noise(x))
+
+
+def slip_ended_stuck(op: np.ndarray, mv: np.ndarray, tolerance: float, direction: int,
+                     measured: np.ndarray | None = None) -> int:
+    """Samples of OP moving while the valve stays steady (IS, DS) that lie in runs of
+    steady valve ending in a slip the way OP pushed (:func:`.slip_exit.slip_ended`, the
+    valve's steady band as the slip's size); counted as :func:`pattern_times` counts
+    them, over the measured samples where a historian's holds were filled in.
+
+    Examples
+    --------
+    >>> op = np.r_[np.arange(10.0), np.full(5, 9.0)]
+    >>> mv = np.r_[np.zeros(10), np.full(5, 9.0)]     # stuck while OP rises, then a jump
+    >>> slip_ended_stuck(op, mv, 0.1, 1), slip_ended_stuck(op, -mv, 0.1, 1)
+    (9, 0)
+    """
+    weights = None
+    if measured is not None:
+        at = np.flatnonzero(measured)
+        op, mv, weights = np.asarray(op)[at], np.asarray(mv)[at], np.diff(at)
+    qo, qm = symbols(op, tolerance), symbols(mv, tolerance)
+    stuck = (qo != 0) & (qm == 0)
+    w = np.ones(qm.size) if weights is None else np.asarray(weights, dtype=float)
+    # runs of steady valve over the differences a..k-1: the samples a..k are steady
+    edges = np.diff(np.r_[0, (qm == 0).astype(np.int8), 0])
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    slipped = slip_ended(op, mv, np.column_stack([starts, stops + 1]),
+                         steady_band(mv, tolerance), direction)
+    total = sum(float(w[a:b][stuck[a:b]].sum())
+                for a, b, ok in zip(starts, stops, slipped, strict=True) if ok)
+    return int(round(total))
 
 
 def pattern_times(op: np.ndarray, mv: np.ndarray, tolerance: float,
@@ -106,6 +146,12 @@ class Yamashita(StictionDetector):
     movement") or when MV is not recorded and the loop is not a flow loop ("not a flow
     loop"); in a flow loop (``flow_loop=True``) PV stands in for a missing MV.
 
+    With ``slip_exit=True`` and PV standing in for MV, only the IS and DS samples of runs
+    of steady PV that end in a slip the way OP pushed count as stuck
+    (:func:`slip_ended_stuck`, :mod:`.slip_exit`): a PI holding a flow against a load
+    also moves OP while PV stays in its band, and only a sticky valve ends such a run
+    with a jump. Our addition, off by default (``reports/real/slip_exit.md``).
+
     The steady band (``tolerance = 0.1`` and the 3-σ noise floor) and ``op_tolerance``
     are our a-priori choices (as in :class:`~.kano.Kano`); the paper sets the band from
     the signals' noise.
@@ -122,6 +168,8 @@ class Yamashita(StictionDetector):
         OP range (% of span; an OP recognised as a fraction of the travel is read as
         such, :meth:`~.detector.StictionDetector.op_percent`) at or below which OP
         counts as constant.
+    slip_exit : bool
+        Where PV stands in for MV, count only the stuck runs that end in a slip.
 
     References
     ----------
@@ -139,19 +187,23 @@ class Yamashita(StictionDetector):
         "tolerance": [Interval(Real, 0, None)],
         "threshold": [Interval(Real, 0, 1)],
         "op_tolerance": [Interval(Real, 0, None)],
+        "slip_exit": [TypeOf(bool)],
     }
 
     def __init__(self, flow_loop: bool = False, tolerance: float = 0.1,
-                 threshold: float = 0.25, op_tolerance: float = 1.0) -> None:
+                 threshold: float = 0.25, op_tolerance: float = 1.0,
+                 slip_exit: bool = False) -> None:
         self.flow_loop = flow_loop
         self.tolerance = tolerance
         self.threshold = threshold
         self.op_tolerance = op_tolerance
+        self.slip_exit = slip_exit
 
     def _estimate(self, x: np.ndarray, y: np.ndarray | None, rec: Recording
                   ) -> EstimateResult:
         rule = {"threshold": self.threshold, "tolerance": self.tolerance,
-                "op_tolerance": self.op_tolerance, "flow_loop": self.flow_loop}
+                "op_tolerance": self.op_tolerance, "flow_loop": self.flow_loop,
+                "slip_exit": self.slip_exit}
         nan = float("nan")
         y, valve = self.valve_signal(y, rec)
         if y is None:
@@ -165,12 +217,22 @@ class Yamashita(StictionDetector):
         if moving <= 0:
             return self._result(nan, None, "no movement", valve=valve, **rule)
         stuck = times["IS"] + times["DS"]
+        checked, reason = {}, None
+        if self.slip_exit and valve == "PV":
+            direction = controller_direction(x, y, rec.SP)
+            if direction == 0:
+                return self._result(nan, None, NO_DIRECTION, valve=valve, **rule)
+            steady = stuck
+            stuck = slip_ended_stuck(x, y, self.tolerance, direction, measured)
+            checked, reason = slip_note(steady / moving, stuck / moving, self.threshold,
+                                        direction)
         rho = stuck / moving
         decision = rho > self.threshold
         lo, hi = wilson(stuck, moving)
         return self._result(
-            rho, decision, "valve steady while OP moves" if decision else "valve moves with OP",
-            valve=valve, moving=int(moving), rho_interval=(lo, hi),
+            rho, decision, reason or ("valve steady while OP moves" if decision
+                                      else "valve moves with OP"),
+            valve=valve, moving=int(moving), rho_interval=(lo, hi), **checked,
             filled_samples=0 if measured is None else int((~measured).sum()),
             evidence=f"ρ = {rho:.2f} from {moving} moving samples, 95 % [{lo:.2f}, {hi:.2f}]",
             **{f"time_{k}": v for k, v in times.items()}, **rule)

@@ -141,6 +141,12 @@ def _from_result(res) -> Call:
     return Call(v, str(d.get("reason", "")), val, str(d.get("evidence", "")))
 
 
+#: where PV stands in for MV (kano, yamashita), count only stuck stretches that end in a
+#: slip (the detectors' ``slip_exit``; :mod:`~stictionbench.estimators.slip_exit`). Off:
+#: ``experiments/slip_exit.py`` measures it (``reports/real/slip_exit.md``)
+SLIP_EXIT = False
+
+
 def _detector(name: str, params: Callable[[str], dict[str, Any]] | None = None,
               mv_rule: bool = False) -> Callable[[Recording, str], Call]:
     """A registered detector on OP and PV; with ``mv_rule`` on OP and MV, PV standing in
@@ -152,7 +158,8 @@ def _detector(name: str, params: Callable[[str], dict[str, Any]] | None = None,
             return _from_result(make(name, **kw).estimate(rec, x="OP", y="PV"))
         if rec.MV is None and kind != "F":
             return Call("inconclusive", "MV not recorded and not a flow loop")
-        return _from_result(make(name, flow_loop=kind == "F", **kw).estimate(rec, x="OP"))
+        return _from_result(make(name, flow_loop=kind == "F", slip_exit=SLIP_EXIT, **kw)
+                            .estimate(rec, x="OP"))
     return run
 
 
