@@ -67,36 +67,20 @@ def test_regulated_flow_under_load_is_not_called_sticky():
     """An ideal valve under a load: the PI moves OP while the flow stays in its band.
     Kano and Yamashita call it sticky as published; with the check they do not, and
     say why."""
-    # loop 0 of the healthy `load` loops of experiments/flow_loops.py (both published
-    # rules call it sticky there, reports/real/flow_loops.csv)
-    ov = ["process.gain=1.59878", "process.time_constant=3.42379",
-          "process.dead_time=0.781878", "controller.kc=0.357655", "controller.ti=14.703",
-          "controller.sample_time=1", "sensor=noisy", "sensor.time_constant=0.5",
-          "sensor.noise_std=0.0583604", "setpoint=constant", "disturbance=load",
-          "disturbance.load_std=0.430979", "disturbance.load_time_constant=300.0",
-          "valve=linear"]
-    r = simulate("linear", duration=3000.0, seed=20000, sample_time=1.0, overrides=ov)
-    rec = Recording.from_arrays(r.t, r.PV, r.OP, SP=r.SP, warn=False)
+    rec = _load_loop()
     for name in ("kano", "yamashita"):
         plain = make(name, flow_loop=True).estimate(rec)
         checked = make(name, flow_loop=True, slip_exit=True).estimate(rec)
         assert plain.decision is True, (name, plain.diagnostics)
         assert checked.decision is False, (name, checked.diagnostics)
-        assert "no slips" in checked.diagnostics["reason"]
+        assert checked.diagnostics["reason"] == slip_exit.REGULATED
+        assert checked.diagnostics["slip_size"] == 1.0 and checked.diagnostics["slip_lag"] == 2
         assert checked.diagnostics["direction"] == 1
         assert checked.diagnostics["rho_unchecked"] == pytest.approx(plain.value)
 
 
 def test_sticky_valve_keeps_its_verdict_with_the_check():
-    # loop 4 of the Kano-valve loops of experiments/flow_loops.py (S 4 %, J 2.9 %)
-    ov = ["process.gain=1.33617", "process.time_constant=2.74402",
-          "process.dead_time=1.14951", "controller.kc=0.0874472", "controller.ti=2.23172",
-          "controller.sample_time=0.5", "sensor=noisy", "sensor.time_constant=0",
-          "sensor.noise_std=0.0593522", "setpoint=constant", "disturbance=load",
-          "disturbance.load_std=0.274096", "disturbance.load_time_constant=300.0",
-          "valve=kano", "valve.S=4", "valve.J=2.87331"]
-    r = simulate("linear", duration=3000.0, seed=20004, sample_time=1.0, overrides=ov)
-    rec = Recording.from_arrays(r.t, r.PV, r.OP, SP=r.SP, warn=False)
+    rec = _sticky_loop()
     for name in ("kano", "yamashita"):
         res = make(name, flow_loop=True, slip_exit=True).estimate(rec)
         assert res.decision is True, (name, res.diagnostics)
@@ -109,3 +93,56 @@ def test_recorded_mv_is_not_checked():
     a = make("kano", slip_exit=True).estimate(mv)
     b = make("kano").estimate(mv)
     assert a.decision == b.decision and "direction" not in a.diagnostics
+
+
+def _load_loop() -> Recording:
+    """Loop 0 of the healthy `load` loops of experiments/flow_loops.py: an ideal valve,
+    which both published rules call sticky there (reports/real/flow_loops.csv)."""
+    ov = ["process.gain=1.59878", "process.time_constant=3.42379",
+          "process.dead_time=0.781878", "controller.kc=0.357655", "controller.ti=14.703",
+          "controller.sample_time=1", "sensor=noisy", "sensor.time_constant=0.5",
+          "sensor.noise_std=0.0583604", "setpoint=constant", "disturbance=load",
+          "disturbance.load_std=0.430979", "disturbance.load_time_constant=300.0",
+          "valve=linear"]
+    r = simulate("linear", duration=3000.0, seed=20000, sample_time=1.0, overrides=ov)
+    return Recording.from_arrays(r.t, r.PV, r.OP, SP=r.SP, warn=False,
+                                 meta={"group": "FIC101"})
+
+
+def _sticky_loop() -> Recording:
+    """Loop 4 of the Kano-valve loops of experiments/flow_loops.py (S 4 %, J 2.9 %)."""
+    ov = ["process.gain=1.33617", "process.time_constant=2.74402",
+          "process.dead_time=1.14951", "controller.kc=0.0874472", "controller.ti=2.23172",
+          "controller.sample_time=0.5", "sensor=noisy", "sensor.time_constant=0",
+          "sensor.noise_std=0.0593522", "setpoint=constant", "disturbance=load",
+          "disturbance.load_std=0.274096", "disturbance.load_time_constant=300.0",
+          "valve=kano", "valve.S=4", "valve.J=2.87331"]
+    r = simulate("linear", duration=3000.0, seed=20004, sample_time=1.0, overrides=ov)
+    return Recording.from_arrays(r.t, r.PV, r.OP, SP=r.SP, warn=False,
+                                 meta={"group": "FIC102"})
+
+
+def test_batch_notes_a_verdict_resting_on_stretches_without_slips():
+    """batch's verdict is unchanged (the check is not adopted), but a stiction verdict
+    whose PV-for-MV votes do not survive the slip check carries a note saying so; a
+    level loop, or a verdict of no stiction, does not."""
+    from stictionbench.realdata.verdict import judge, slip_notes
+
+    rec = _load_loop()
+    entry = judge(rec, "regulated", diagnose="none")
+    assert entry["verdict"] == "stiction", entry["reason"]
+    notes = [n for n in entry["notes"] if "slip check" in n]
+    assert len(notes) == 1 and notes[0].startswith("kano and yamashita"), entry["notes"]
+    calls = {m: type("C", (), {"verdict": v["verdict"]})() for m, v in entry["methods"].items()}
+    assert slip_notes(rec, calls, "no_stiction") == []
+    level = Recording.from_arrays(rec.t, rec.PV, rec.OP, SP=rec.SP, warn=False,
+                                  meta={"group": "LIC101"})
+    assert slip_notes(level, calls, "stiction") == []
+
+
+def test_batch_does_not_note_a_sticky_valve_whose_stretches_end_in_slips():
+    from stictionbench.realdata.verdict import judge
+
+    entry = judge(_sticky_loop(), "sticky", diagnose="none")
+    assert entry["verdict"] == "stiction", entry["reason"]
+    assert not [n for n in entry["notes"] if "slip check" in n], entry["notes"]

@@ -6,9 +6,9 @@ PV stands in for it, and there a second cause gives the same picture: a PI that 
 flow at its set point against a load moves OP while PV stays within its noise band. The
 controller's law cannot tell the two apart (over any stretch, OP's integral move is
 ``Kc/Ti·∫e`` whatever kept PV where it was). What can is the end of the stretch: a
-sticky valve ends it with a **slip**, a jump of PV beyond its noise band, within a
-sample or two, the way OP pushed (OP's net move over the stretch, times the loop's
-direction); a regulated PV leaves its band by drifting, not by a jump.
+sticky valve ends it with a **slip**, a jump of PV beyond its noise band by the second
+sample after the stretch, the way OP pushed (OP's net move over the stretch, times the
+loop's direction); a regulated PV leaves its band by drifting, not by a jump.
 
 A stretch ``[start, stop)`` of steady valve ends in a slip when
 
@@ -48,13 +48,15 @@ SIZE = 1.0
 #: a detector's reason when the loop's direction cannot be read from the record
 NO_DIRECTION = "loop direction not identified"
 #: its reason when the check alone turned a stiction verdict away
-REGULATED = "flow steady while OP moves, but no slips end it: a regulated flow"
+REGULATED = ("flow steady while OP moves, but too little of that ends in a slip: a flow "
+             "regulated against its load, or slips within the noise")
 
 
 def slip_note(steady: float, kept: float, threshold: float, direction: int
               ) -> tuple[dict[str, float], str | None]:
     """What a detector that applied the check adds to its diagnostics (the loop's
-    ``direction`` and its index before the check, ``rho_unchecked``), and its reason
+    ``direction``, its index before the check ``rho_unchecked``, and the check's
+    ``slip_size`` and ``slip_lag``: :data:`SIZE`, :data:`LAG`), and its reason
     when the check alone turned the verdict: the index ``steady`` above ``threshold``
     and the index ``kept`` over the slip-ended stretches not.
 
@@ -63,10 +65,10 @@ def slip_note(steady: float, kept: float, threshold: float, direction: int
     >>> slip_note(0.6, 0.1, 0.25, 1)[1] == REGULATED
     True
     >>> slip_note(0.6, 0.4, 0.25, -1)
-    ({'direction': -1, 'rho_unchecked': 0.6}, None)
+    ({'direction': -1, 'rho_unchecked': 0.6, 'slip_size': 1.0, 'slip_lag': 2}, None)
     """
-    return ({"direction": direction, "rho_unchecked": steady},
-            REGULATED if steady > threshold >= kept else None)
+    return ({"direction": direction, "rho_unchecked": steady, "slip_size": SIZE,
+             "slip_lag": LAG}, REGULATED if steady > threshold >= kept else None)
 
 
 def controller_direction(op: np.ndarray, pv: np.ndarray, sp: np.ndarray | None = None
@@ -76,8 +78,9 @@ def controller_direction(op: np.ndarray, pv: np.ndarray, sp: np.ndarray | None =
     record cannot tell.
 
     The sign of the integral term in the PI's velocity form
-    ``ΔOP_k = a·ΔPV_k + b·ΔPV_{k−1} + c·(e_k − ē) + d`` fitted by least squares, with
-    ``e = SP − PV`` (``−PV`` without a set point). The integral term is used rather than
+    ``ΔOP_k = a·ΔPV_k + b·ΔPV_{k−1} + c·(e_{k−1} − ē) + c₀`` fitted by least squares,
+    with ``e = SP − PV`` (``−PV`` without a set point) and ``ΔX_k = X_k − X_{k−1}``; the
+    direction is the sign of ``c``. The integral term is used rather than
     the proportional kick: in a fast loop the process answers OP within the same sample,
     which biases the kick's coefficient and not the integral's.
 
@@ -118,8 +121,10 @@ def slip_ended(op: np.ndarray, valve: np.ndarray, stretches: np.ndarray, band: f
         ``+1`` when OP up moves the valve signal up, ``-1`` for the reverse
         (:func:`controller_direction`).
     lag : int
-        The slip shows by sample ``stop + lag − 1`` (``lag = 1``: the first sample after
-        the stretch, ``stop``).
+        The valve is read at sample ``stop + lag − 1`` alone (``lag = 1``: the first
+        sample after the stretch, ``stop``; ``lag = 2``: the second, so that a jump
+        spread over two samples by a transmitter lag counts and a spike at ``stop`` that
+        falls back does not).
 
     Returns
     -------

@@ -59,7 +59,12 @@ def slip_ended_stuck(op: np.ndarray, mv: np.ndarray, tolerance: float, direction
     """Samples of OP moving while the valve stays steady (IS, DS) that lie in runs of
     steady valve ending in a slip the way OP pushed (:func:`.slip_exit.slip_ended`, the
     valve's steady band as the slip's size); counted as :func:`pattern_times` counts
-    them, over the measured samples where a historian's holds were filled in.
+    them, over the measured samples where a historian's holds were filled in (the slip's
+    two samples are then measured ones).
+
+    The slip's size is this detector's steady band (:func:`steady_band`), a band on
+    *first differences*, here compared with a move of the *level* from the run's
+    median: a slip is a move larger than one difference may be, the way OP pushed.
 
     Examples
     --------

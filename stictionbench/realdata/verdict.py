@@ -24,7 +24,7 @@ from .quality import prepare
 #: names other modules and scripts import from here
 __all__ = ["MAX_DIAGNOSE_SAMPLES", "VERDICTS", "StictionRule", "assess", "decimate_mean",
            "diagnosis_fields", "features", "judge", "lone_notes", "period_notes",
-           "rule_dict", "tie_notes"]
+           "rule_dict", "slip_notes", "tie_notes"]
 
 VERDICTS = ("stiction", "no_stiction", "unusable")
 
@@ -68,7 +68,7 @@ def judge(rec: Recording, name: str, consensus=None, *,
     final = entry["verdict"]
     entry["confidence"] = (sum(x == final for x in votes) / len(votes)) if votes else 0.5
     entry["notes"] = (period_notes(entry.get("oscillation_period_s")) + tie_notes(votes)
-                      + lone_notes(deciding))
+                      + lone_notes(deciding) + slip_notes(rec, calls, final))
     if diagnose == "all" or (diagnose == "flagged" and final == "stiction"):
         entry.update(diagnosis_fields(r))
     return entry
@@ -117,6 +117,38 @@ def tie_notes(votes: list[str]) -> list[str]:
     return [f"a tie: {k} of {len(votes)} deciding methods say stiction, so the verdict "
             "rests on the consensus's tie rule; confirm with a look at the loop (see the "
             "README's caveat for batch)"]
+
+
+#: the methods that read PV for an unrecorded valve position in a flow loop
+PV_FOR_MV = ("kano", "yamashita")
+
+
+def slip_notes(rec: Recording, calls: dict[str, Any], final: str) -> list[str]:
+    """A note when a stiction verdict has Kano's or Yamashita's vote with PV standing in
+    for the unrecorded valve, and none of those votes survives the slip check
+    (:mod:`~stictionbench.estimators.slip_exit`: only stuck stretches that end in a slip
+    the way OP pushed count). A PI holding a flow at its set point against a load moves
+    OP while PV stays in its noise band, the picture those methods read as a stuck
+    valve; a sticky valve ends the stretch with a slip. The check is not part of the
+    verdict: it cut the false alarms on simulated regulatory flow loops but turned away
+    a labelled sticky refinery loop whose slips are smaller than PV's noise band
+    (``reports/real/slip_exit.md``). A note, not a verdict.
+    """
+    from ..estimators import make
+    from .panel import loop_type
+
+    if final != "stiction" or rec.MV is not None or loop_type(rec) != "F":
+        return []
+    voted = [m for m in PV_FOR_MV if getattr(calls.get(m), "verdict", None) == "stiction"]
+    if not voted:
+        return []
+    for m in voted:
+        if make(m, flow_loop=True, slip_exit=True).estimate(rec, x="OP").decision:
+            return []
+    return [f"{' and '.join(voted)} read PV for the unrecorded valve, and few of the "
+            "stretches where PV stays put while OP moves end in a slip the way OP pushed: "
+            "a PI holding the flow against a load looks the same; look for load changes "
+            "before the valve (the slip check, reports/real/slip_exit.md)"]
 
 
 def lone_notes(deciding: list[str]) -> list[str]:
