@@ -147,8 +147,9 @@ def slip_notes(rec: Recording, calls: dict[str, Any], final: str) -> list[str]:
             return []
     return [f"{' and '.join(voted)} read PV for the unrecorded valve, and few of the "
             "stretches where PV stays put while OP moves end in a slip the way OP pushed: "
-            "a PI holding the flow against a load looks the same; look for load changes "
-            "before the valve (the slip check, reports/real/slip_exit.md)"]
+            "so does a PI holding the flow against a load, and a sticky valve whose slips "
+            "are smaller than PV's noise; check the load's changes before the valve (the "
+            "slip check, reports/real/slip_exit.md)"]
 
 
 def lone_notes(deciding: list[str]) -> list[str]:
