@@ -41,9 +41,11 @@ not flagged) is not lower and the shipped consensus's false alarms are lower, an
 part C the untrained majority's, both cross-dataset and both leave-one-loop-out balanced
 accuracies are not lower. Otherwise it stays an option, off.
 
-A last part, added after the criterion was scored and scored by nothing, varies the cause
-the check addresses: the load (and the transmitter noise) on the ideal-valve loops of
-``flow_loops.py``'s controlled check.
+Two last parts, added after the criterion was scored and scored by nothing: D, the flow
+loops of ``refinery_rate_loops.py`` (recorded every 10 s, as the refinery's windows are,
+with the set point constant or stepping), and the cause the check addresses varied: the
+load (and the transmitter noise) on the ideal-valve loops of ``flow_loops.py``'s
+controlled check.
 
 Run: ``.venv/bin/python experiments/slip_exit.py [--per-cell 12] [--jobs 2]``; writes
 ``reports/real/slip_exit.md``, ``.png``, ``slip_exit_sim.csv`` and ``slip_exit_real.csv``.
@@ -98,6 +100,8 @@ B_BANDS = (0.5, 1.0, 2.0, 4.0, 8.0)
 B_KINDS = ("physical", "physical_deadband", "load")
 DATA = ROOT.parent / "shared" / "data"
 PNG = "slip_exit.png"
+#: part D: loops per kind and set-point mode (as ``refinery_rate_loops.py`` draws them)
+RATE_PER_KIND = 20
 
 
 def _record(r, label: str) -> sb.Recording:
@@ -170,6 +174,36 @@ def held_out_loop(kind: str, i: int) -> dict:
             out[m] = "inconclusive"
             out[m + "_error"] = str(exc)[:60]
     return {**out, **pair_calls(rec)}
+
+
+def refinery_rate_loop(mode: str, kind: str, i: int) -> dict:
+    """Part D: flow loop ``i`` of ``kind`` of ``refinery_rate_loops.py`` (the flow-loop
+    draw recorded every 10 s for 7500 s, the set point constant or stepping), kano and
+    yamashita both ways."""
+    import refinery_rate_loops as rr
+
+    ov, p = rr.DRAWS["F"](kind, i)
+    if mode != "regulatory":
+        ov = [o for o in ov if o != "setpoint=constant"] + rr.setpoint_steps("F", kind, i)
+    r = sb.simulate("linear", duration=rr.DURATION, seed=rr.SEED0 + i,
+                    sample_time=rr.SAMPLE_TIME, overrides=ov)
+    label = "stiction" if kind in STICKY else "no_stiction"
+    return {"part": "D", "mode": mode, "kind": kind, "i": i, "S": p["S"], "label": label,
+            **pair_calls(_record(r, label))}
+
+
+def refinery_rate_part(rows: list[dict]) -> pd.DataFrame:
+    """Part D's loops merged with the other methods' verdicts stored by
+    ``refinery_rate_loops.py`` (kano's and yamashita's shipped verdicts checked equal)."""
+    stored = pd.read_csv(ROOT / "reports" / "real" / "refinery_rate_loops.csv")
+    stored = stored[stored["loop_type"] == "F"]
+    df = pd.DataFrame(rows).merge(
+        stored.drop(columns=[c for c in ("S", "label") if c in stored]),
+        on=["mode", "kind", "i"], how="left")
+    for m in PAIR:
+        same = df[f"{m}_shipped"] == df[m]
+        assert same.all(), f"part D: shipped {m} differs from refinery_rate_loops.csv"
+    return df
 
 
 def controlled_loop(factor: str, value: float, i: int) -> dict:
@@ -426,7 +460,7 @@ def criterion(methods: pd.DataFrame, cross: pd.DataFrame) -> list[str]:
 
 
 def reading(methods: pd.DataFrame, cross: pd.DataFrame, anatomy: pd.DataFrame | None,
-            ctl: pd.DataFrame) -> list[str]:
+            ctl: pd.DataFrame, rate_rows: pd.DataFrame) -> list[str]:
     """What the tables say, in numbers read from them: the gain on the simulated loops,
     the real loop lost and why, and the slip's size varied on both."""
     def cell(part, m, variant, col):
@@ -455,6 +489,15 @@ def reading(methods: pd.DataFrame, cross: pd.DataFrame, anatomy: pd.DataFrame | 
                 f"{cell(part, 'consensus', v, 'detected')}" for v in VARIANTS if VARIANTS[v][0])
             + " (balanced accuracy " + " → ".join(
                 f"{cell(part, 'consensus', v, 'balanced_accuracy')}" for v in VARIANTS) + ").")
+    for part, g in rate_rows[rate_rows.method == "consensus"].groupby("part", sort=False):
+        row = g.set_index("variant")
+        lines.append(
+            f"- {part.replace('D, ', 'At the refinery sampling (part D), ')}: the consensus's "
+            f"false alarms {row.loc['shipped', 'false_alarms']} → "
+            f"{row.loc['slip_exit', 'false_alarms']}, sticky valves found "
+            f"{row.loc['shipped', 'detected']} → {row.loc['slip_exit', 'detected']}, "
+            f"balanced accuracy {row.loc['shipped', 'balanced_accuracy']} → "
+            f"{row.loc['slip_exit', 'balanced_accuracy']}.")
     lines.append("- The cause varied, healthy ideal-valve loops called sticky by the "
                  "consensus, " + "; ".join(varied) + ".")
     for ds in sorted(set(plain.scored_on)):
@@ -509,6 +552,17 @@ def main(argv: list[str] | None = None) -> int:
         delayed(held_out_loop)(k, i) for k, i in jobs_b), total=len(jobs_b), desc="part B"))
     df_b = pd.DataFrame(rows_b)
 
+    import refinery_rate_loops as rr
+
+    jobs_d = [(mode, k, i) for mode in rr.MODES for k in (*STICKY, *HEALTHY)
+              for i in range(RATE_PER_KIND)]
+    df_d = refinery_rate_part(list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator")(
+        delayed(refinery_rate_loop)(mode, k, i) for mode, k, i in jobs_d),
+        total=len(jobs_d), desc="part D")))
+    rate_rows = pd.concat([pd.DataFrame(method_rows(g, f"D, {mode}", panel.PUBLISHED))
+                           for mode, g in df_d.groupby("mode", sort=False)])
+    rate_rows = rate_rows[rate_rows.method.isin([*PAIR, "consensus"])].reset_index(drop=True)
+
     jobs_c = [(f, v, i) for f in GRID for v in GRID[f] for i in range(CONTROLLED_LOOPS)]
     ctl = controlled_table(pd.DataFrame(list(tqdm(Parallel(n_jobs=a.jobs, return_as="generator")(
         delayed(controlled_loop)(f, v, i) for f, v, i in jobs_c), total=len(jobs_c),
@@ -556,6 +610,13 @@ def main(argv: list[str] | None = None) -> int:
         to_markdown(methods.reset_index(drop=True)), "",
         f"![consensus by kind and against the load]({PNG})", "",
         "### By kind of loop", "", to_markdown(causes), "",
+        "### At the refinery's sampling (part D)", "",
+        f"Added after the criterion was scored, and scored by nothing: the {len(df_d)} flow "
+        "loops of `refinery_rate_loops.py` (the same flow-loop draw recorded every 10 s for "
+        "7500 s, as the refinery's windows are; set point constant or stepping every "
+        f"200–600 s; {RATE_PER_KIND} per kind), the other methods' verdicts read from "
+        "`reports/real/refinery_rate_loops.csv`.", "",
+        to_markdown(rate_rows), "",
         "### The cause varied", "",
         f"Ideal-valve loops of the `load` draw ({CONTROLLED_LOOPS} per value, the "
         "controlled check of `flow_loops.py`): the load's standard deviation varied with the "
@@ -577,7 +638,7 @@ def main(argv: list[str] | None = None) -> int:
         "stretch's median, in steady bands, positive the way OP pushed; Yamashita's runs "
         "are shorter, read against a band on differences, and not tabled):", "",
         to_markdown(anatomy) if anatomy is not None else "none", "",
-        *reading(methods, cross, anatomy, ctl),
+        *reading(methods, cross, anatomy, ctl, rate_rows),
         "## The criterion", "", *criterion(methods, cross), "",
     ]
     figure(causes, ctl, out / PNG)
