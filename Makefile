@@ -62,10 +62,10 @@ real: venv
 	$(BIN)/python experiments/two_stage_isdb.py
 	$(BIN)/python experiments/simulated_loops.py
 	$(BIN)/python experiments/flow_loops.py
-	$(BIN)/python experiments/slip_exit.py
 	$(BIN)/python experiments/level_loops.py
 	$(BIN)/python experiments/consensus_one_se.py
 	$(BIN)/python experiments/refinery_rate_loops.py
+	$(BIN)/python experiments/slip_exit.py
 	$(BIN)/python experiments/yamashita_evidence.py --data $(DATA)
 	$(BIN)/python experiments/compression.py --data $(DATA)
 	$(BIN)/python experiments/isdb_noise_model.py --data $(DATA)/isdb
