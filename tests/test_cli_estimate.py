@@ -90,3 +90,22 @@ def test_every_estimator_has_a_hydra_config():
         est = instantiate(cfg)
         assert est.name == name
         assert set(est.get_params()) == set(cfg) - {"_target_"}
+
+
+def test_estimate_kano_reads_pv_for_mv_on_a_flow_loop(tmp_path, capsys):
+    """Without MV, Kano refuses (and says how: flow_loop=true); with it, PV stands in and
+    the slip check can be asked for; a method without that parameter is not offered it."""
+    rng = np.random.default_rng(0)
+    t = np.arange(1000.0)
+    op = 50 + np.cumsum(rng.normal(0, 0.5, t.size))
+    pv = np.round(op / 4) * 4 + rng.normal(0, 0.01, t.size)   # a valve moving in steps
+    p = write_recording(Recording.from_arrays(t, pv, op), tmp_path / "flow.csv")
+    assert main(["estimate", str(p), "--method", "kano"]) == 2
+    assert "flow_loop=true" in capsys.readouterr().err
+    assert main(["estimate", str(p), "--method", "xcorr"]) == 2
+    assert "flow_loop" not in capsys.readouterr().err
+    out = tmp_path / "k.json"
+    assert main(["estimate", str(p), "--method", "kano", "--param", "flow_loop=true",
+                 "--param", "slip_exit=true", "--json", str(out)]) == 0
+    d = json.loads(out.read_text())["diagnostics"]
+    assert d["valve"] == "PV" and d["slip_exit"] is True and "direction" in d

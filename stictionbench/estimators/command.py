@@ -95,13 +95,16 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     rec = read_one(args.recording, loop=args.loop)
     rec.signal(args.x or est.default_x)              # an unknown name is said before MV's absence
     yname = args.y or est.default_y
-    if yname == "MV" and getattr(rec, "MV", None) is None:
+    pv_for_mv = getattr(est, "flow_loop", False) and args.y is None  # PV stands in
+    if yname == "MV" and getattr(rec, "MV", None) is None and not pv_for_mv:
         # the paper's estimators compare OP with the valve position, which plants rarely
         # record: say what can be done instead of only what is missing
+        flow = ("`--param flow_loop=true` on a flow loop (PV for MV), "
+                if "flow_loop" in est.get_params() else "")
         raise InputError(f"{args.recording}: {est.name} compares {args.x or est.default_x} "
                          "with the valve position MV; MV is not recorded: use a method that "
-                         "needs only OP and PV (horch, he, area_ratio, bicoherence, ...), or "
-                         "`diagnose`")
+                         "needs only OP and PV (horch, he, area_ratio, bicoherence, ...), "
+                         f"{flow}or `diagnose`")
     res = est.estimate(rec, x=args.x, y=args.y)
     payload = res.to_dict()
     payload.update(source_keys(args.recording, rec))
