@@ -186,6 +186,7 @@ independent: venv
 	$(BIN)/python experiments/slip_jump_pi_rate.py --jobs 2
 	$(BIN)/python experiments/slip_jump_loop_speed.py --jobs 2
 	$(BIN)/python experiments/slip_jump_bootstrap_sets.py --jobs 2
+	$(BIN)/python experiments/slip_jump_two_stage.py
 	$(BIN)/python experiments/block_layout.py --jobs 2
 	$(BIN)/python experiments/split_vote.py --jobs 2
 	$(BIN)/python experiments/noise_model_family.py --jobs 2
