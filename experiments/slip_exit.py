@@ -276,22 +276,26 @@ def with_variant(df: pd.DataFrame, variant: str) -> pd.DataFrame:
     return df.assign(**{m: df[f"{m}_{variant}"] for m in PAIR})
 
 
+def rates(v: pd.DataFrame, m: str) -> dict:
+    """Method ``m``'s column of ``v`` against ``v["label"]``: detected, false alarms,
+    inconclusive, balanced accuracy (an inconclusive verdict counted as not flagged)."""
+    st = v["label"] == "stiction"
+    return {"detected": rate_text(int((v.loc[st, m] == "stiction").sum()), int(st.sum())),
+            "false_alarms": rate_text(int((v.loc[~st, m] == "stiction").sum()),
+                                      int((~st).sum())),
+            "inconclusive": int((v[m] == "inconclusive").sum()),
+            "balanced_accuracy": round(balanced_accuracy(v["label"], v[m]), 3)}
+
+
 def method_rows(df: pd.DataFrame, part: str, methods: tuple[str, ...]) -> list[dict]:
-    """Per method and variant: detected, false alarms, inconclusive, balanced accuracy."""
+    """Per method and variant: :func:`rates`, the consensus among them."""
     rows = []
     cons = Consensus.load()
     for variant in VARIANTS:
         v = with_variant(df, variant)
         v = v.assign(consensus=[cons.decide(r)[0] for _, r in v.iterrows()])
-        st = v["label"] == "stiction"
-        for m in (*methods, "consensus"):
-            rows.append({"part": part, "method": m, "variant": variant,
-                         "detected": rate_text(int((v.loc[st, m] == "stiction").sum()),
-                                               int(st.sum())),
-                         "false_alarms": rate_text(int((v.loc[~st, m] == "stiction").sum()),
-                                                   int((~st).sum())),
-                         "inconclusive": int((v[m] == "inconclusive").sum()),
-                         "balanced_accuracy": round(balanced_accuracy(v["label"], v[m]), 3)})
+        rows += [{"part": part, "method": m, "variant": variant, **rates(v, m)}
+                 for m in (*methods, "consensus")]
     return rows
 
 
@@ -348,20 +352,11 @@ def real_part(jobs: int) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, pd.DataF
 
 
 def real_methods(sets: dict[str, dict[str, pd.DataFrame]]) -> pd.DataFrame:
-    rows = []
-    for variant, s in sets.items():
-        for folder, loops in s.items():
-            st = loops["label"] == "stiction"
-            for m in PAIR:
-                rows.append({"dataset": folder, "method": m, "variant": variant,
-                             "detected": rate_text(int((loops.loc[st, m] == "stiction").sum()),
-                                                   int(st.sum())),
-                             "false_alarms": rate_text(
-                                 int((loops.loc[~st, m] == "stiction").sum()), int((~st).sum())),
-                             "inconclusive": int((loops[m] == "inconclusive").sum()),
-                             "balanced_accuracy": round(balanced_accuracy(loops["label"],
-                                                                          loops[m]), 3)})
-    return pd.DataFrame(rows)
+    """Kano's and Yamashita's :func:`rates` by loop, per dataset and variant."""
+    return pd.DataFrame([{"dataset": folder, "method": m, "variant": variant,
+                          **rates(loops, m)}
+                         for variant, s in sets.items() for folder, loops in s.items()
+                         for m in PAIR])
 
 
 def verdict_changes(sets: dict[str, dict[str, pd.DataFrame]]) -> pd.DataFrame:

@@ -164,12 +164,12 @@ class Kano(StictionDetector):
     def __init__(self, mv_tolerance: float = 0.25, op_tolerance: float = 1.0,
                  threshold: float = 0.25, flow_loop: bool = False,
                  noise_factor: float = 3.0, slip_exit: bool = False) -> None:
-        self.slip_exit = slip_exit
         self.mv_tolerance = mv_tolerance
         self.op_tolerance = op_tolerance
         self.threshold = threshold
         self.flow_loop = flow_loop
         self.noise_factor = noise_factor
+        self.slip_exit = slip_exit
 
     def _estimate(self, x: np.ndarray, y: np.ndarray | None, rec: Recording
                   ) -> EstimateResult:
