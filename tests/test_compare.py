@@ -143,6 +143,22 @@ def test_hammerstein_methods_fit_each_window_afresh():
         del rec
 
 
+def test_a_method_that_fails_on_a_short_window_says_why_in_words():
+    """A window too short for the valve identification gets that as its reason, without
+    the file's path the input error starts with and not cut mid-word (a first version
+    printed "../shared/data/plant/….csv: 126 samples; valve id")."""
+    from stictionbench.realdata.panel import window_calls
+
+    rec = sb.simulate("stiction", duration=150, seed=3, sample_time=1.0, sensor="noisy")
+    src = "some/folder/LIC63001_0628_1642.csv"
+    rec = sb.Recording.from_arrays(rec.t, rec.PV, rec.OP, SP=rec.SP, meta={"source": src})
+    calls = window_calls(rec, "LIC63001", methods=("hammerstein",))
+    call = calls["hammerstein"]
+    assert call.verdict == "inconclusive"
+    assert call.reason.startswith("151 samples; valve identification needs >= 200"), call.reason
+    assert src not in call.reason
+
+
 def test_model_based_methods_do_not_rule_a_valve_out_on_regulatory_data():
     """Without set-point excitation the process identified from OP → PV is biased
     (experiments/regulatory_bias.py), so a valve not found is inconclusive; with

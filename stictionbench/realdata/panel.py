@@ -317,8 +317,34 @@ def window_calls(rec: Recording, name: str,
         try:
             out[m] = METHODS[m](rec, kind)
         except Exception as exc:  # one method failing on odd data must not stop the rest
-            out[m] = Call("inconclusive", " ".join(str(exc).split())[:80])
+            out[m] = Call("inconclusive", failure_reason(exc, rec))
     return out
+
+
+def failure_reason(exc: BaseException, rec: Recording, limit: int = 120) -> str:
+    """A method's error as a verdict's reason: one line, without the ``source: `` prefix
+    an input error names the file by (the window is the entry's name already), cut at a
+    word with "…" beyond ``limit`` characters (a first version cut at 80 characters
+    mid-word and kept the relative path: "../shared/data/plant/….csv: 126 samples;
+    valve id").
+
+    Examples
+    --------
+    >>> from stictionbench.recording import Recording
+    >>> import numpy as np
+    >>> r = Recording(np.arange(5.0), np.zeros(5), np.zeros(5), meta={"source": "a/b.csv"})
+    >>> failure_reason(ValueError("a/b.csv: 126 samples; valve identification needs >= 200"), r)
+    '126 samples; valve identification needs >= 200'
+    >>> failure_reason(ValueError("x " * 100), r, limit=20)
+    'x x x x x x x x x x…'
+    """
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    src = str(rec.meta.get("source", ""))
+    if src and text.startswith(src + ": "):
+        text = text[len(src) + 2:]
+    if len(text) > limit:
+        text = text[:limit].rsplit(" ", 1)[0].rstrip(" ;,:") + "…"
+    return text
 
 
 def as_call(c: Call | dict[str, Any]) -> Call:
