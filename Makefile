@@ -59,6 +59,7 @@ real: venv
 	$(BIN)/python experiments/limit_cycles.py
 	$(BIN)/python experiments/isdb_priors.py --data $(DATA)/isdb
 	$(BIN)/python experiments/isdb_diagnose.py --data $(DATA)/isdb
+	$(BIN)/python experiments/pairing_lags.py --data $(DATA) --jobs 2
 	$(BIN)/python experiments/two_stage_isdb.py
 	$(BIN)/python experiments/simulated_loops.py
 	$(BIN)/python experiments/flow_loops.py

@@ -118,3 +118,19 @@ def test_screen_warns_on_an_independent_pair_only():
     loop = screen(sb.simulate("linear", duration=2000.0, seed=1, sample_time=1.0))
     assert loop.flags["op_pv_independence_p"] < 1e-10
     assert not any("independent" in w for w in loop.warnings)
+
+
+def test_the_lags_reach_the_loops_dead_time():
+    """The paper's sticky loop recorded for 600 s at its 0.1 s sampling: OP reaches PV
+    100 samples later. The fixed ±50-sample window cannot reject independence there
+    (p = 1), so ``--pairing-check`` turned the named stiction into ``none``; the windows
+    reaching (θ + 2τ)/Ts reject it, with the model given and with the one identified."""
+    r = sb.simulate("stiction", duration=600.0, seed=0)
+    rec = sb.Recording.from_arrays(r.t, r.PV, r.OP, SP=r.SP, warn=False)
+    assert series_independence(rec.PV, rec.OP)["p_value"] > 0.5  # the fixed window
+    t = pairing_test(rec, 0.05, dead_time=10.0, time_constant=10.0)
+    assert t["windows"] == [50, 100, 200, 300] and not t["independent"]
+    d = diagnose(rec, NominalModel(3.0, 10.0, 10.0, kc=0.2, ti=10.0), pairing_check=True)
+    assert not d.tests["op_pv_dependence"]["independent"]
+    assert d.missing_physics == "stiction"
+    assert not diagnose(rec).tests["op_pv_dependence"]["independent"]

@@ -923,12 +923,13 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         from .slip_bootstrap import check_request
 
         check_request(rec, model, slip_jump_bootstrap, bootstrap_seed)
-    pairing = pairing_test(rec, alpha)
     kw = dict(hp_factor=hp_factor, lp_factor=lp_factor, pem=pem, op_range=op_range,
               n_blocks=n_blocks, block_layout=block_layout, noise_family=noise_family,
               test_noise_family=test_noise_family, alignment=alignment)
     cmp, between = _compare_intersample(rec, model, kw) if intersample else \
         (compare(rec, model, **kw), None)
+    # the lags reach the loop's dead time and time constants (given or identified)
+    pairing = pairing_test(rec, alpha, cmp.ctx.theta, cmp.ctx.tau)
     loc = locate(cmp)
     line = harmonic_line(cmp) if line_test else None
     names = hypothesise(cmp, loc, hypotheses, line=line, alpha=alpha)
