@@ -8,6 +8,7 @@ validation rules apply whatever the format. Every writer goes through
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import re
 import shutil
@@ -51,10 +52,30 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     try:
         yield Path(tmp)
         os.replace(tmp, target)
+    except OSError as exc:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise _named(exc, {tmp: target}) from None
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+
+
+def _named(exc: OSError, staged: dict) -> OSError:
+    """``exc`` naming the user's output where it names a staging path or nothing (a full
+    disk names no file; a first version said "No space left on device" alone, or named
+    ``.summary.md.7w1tfhts.tmp``); an error about any other file is kept as it is."""
+    where = {str(k): v for k, v in staged.items()}
+    name = None if exc.filename is None else str(exc.filename)
+    if name is not None and name not in where:
+        for stage, target in where.items():  # a file inside a staging directory
+            if name.startswith(stage + os.sep):
+                return OSError(exc.errno, exc.strerror or str(exc),
+                               str(Path(target) / os.path.relpath(name, stage)))
+        return exc
+    target = where[name] if name is not None else next(iter(where.values()))
+    return OSError(exc.errno, exc.strerror or str(exc), str(target))
 
 
 @contextlib.contextmanager
@@ -85,13 +106,20 @@ def atomic_directory(path: str | os.PathLike[str]) -> Iterator[Path]:
     os.umask(umask)
     try:
         yield stage
-        for src in sorted(stage.rglob("*")):
-            if src.is_dir():
-                continue
+        files = [src for src in sorted(stage.rglob("*")) if not src.is_dir()]
+        for src in files:  # every conflict is found before the first file is moved
+            dst = target / src.relative_to(stage)
+            if dst.is_dir() or (target.exists() and not target.is_dir()):
+                raise OSError(errno.EISDIR if dst.is_dir() else errno.ENOTDIR,
+                              "Is a directory" if dst.is_dir() else "Not a directory",
+                              str(dst if dst.is_dir() else target))
+        for src in files:
             dst = target / src.relative_to(stage)
             dst.parent.mkdir(parents=True, exist_ok=True)
             os.chmod(src, 0o666 & ~umask)
             os.replace(src, dst)
+    except OSError as exc:
+        raise _named(exc, {stage: target}) from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)
 

@@ -226,10 +226,60 @@ def _as_columns(raw: dict[str, Any], source: str) -> dict[str, np.ndarray | None
     return arrays
 
 
+def hold_setpoint(sp: np.ndarray | None, source: str, first_row: int = 0
+                  ) -> tuple[np.ndarray | None, str | None]:
+    """The set point with its blank cells filled by holding the last logged value
+    (``(SP, note)``; ``note`` is ``None`` where nothing was blank).
+
+    A set point is a held signal: historians often log it only when it changes (report
+    by exception), leaving blank cells between the changes, which a linear interpolation
+    would turn into ramps and which the gap limit for measured signals
+    (:data:`MAX_INTERPOLATED_GAP`) would refuse or cut the record at. Its value before
+    the first logged one is unknown: a short leading gap is filled with that first
+    value; a longer one, or a column with no value, makes SP not recorded (``None``),
+    and the loop is read as one with a constant, unknown set point.
+
+    Examples
+    --------
+    >>> sp, note = hold_setpoint(np.array([50.0, np.nan, np.nan, 52.0, np.nan]), "f.csv", 2)
+    >>> sp.tolist()
+    [50.0, 50.0, 50.0, 52.0, 52.0]
+    >>> note.split(": ", 2)[2]
+    '3 blank cells filled by holding the last logged set point (logged only when it changed?)'
+
+    >>> hold_setpoint(np.r_[np.full(10, np.nan), 1.0, 1.0], "f.csv", 2)[0] is None
+    True
+    """
+    if sp is None:
+        return None, None
+    sp = np.asarray(sp, float)
+    blank = np.isnan(sp)
+    if not blank.any():
+        return sp, None
+    if blank.all():
+        return None, f"{source}: column SP has no values; read as not recorded"
+    first = int(np.argmax(~blank))
+    if first > MAX_INTERPOLATED_GAP:
+        return None, (f"{source}: column SP: rows {first_row}–{first_row + first - 1} are "
+                      "blank, so the set point before its first logged value is unknown; "
+                      "SP is read as not recorded")
+    last = np.maximum.accumulate(np.where(blank, 0, np.arange(sp.size)))
+    held = sp[last]
+    held[:first] = sp[first]
+    return held, (f"{source}: column SP: {int(blank.sum())} blank cells filled by holding "
+                  "the last logged set point (logged only when it changed?)")
+
+
 def _fill_missing(arrays: dict[str, np.ndarray | None], source: str,
                   first_row: int) -> list[str]:
-    """Refuse infinities and missing times; interpolate short gaps in place (notes)."""
+    """Refuse infinities and missing times; hold the set point over its blank cells
+    (:func:`hold_setpoint`); interpolate short gaps of the other signals in place
+    (notes)."""
     notes: list[str] = []
+    if arrays.get("SP") is not None and not np.isinf(arrays["SP"]).any():
+        arrays["SP"], note = hold_setpoint(arrays["SP"], source, first_row)
+        if note:
+            notes.append(note)
     for name, arr in arrays.items():
         if arr is None:
             continue

@@ -21,7 +21,13 @@ from typing import Any
 import numpy as np
 
 from .errors import user_warning
-from .recording import MAX_INTERPOLATED_GAP, MIN_SAMPLES, UNIFORM_TOLERANCE, Recording
+from .recording import (
+    MAX_INTERPOLATED_GAP,
+    MIN_SAMPLES,
+    UNIFORM_TOLERANCE,
+    Recording,
+    hold_setpoint,
+)
 
 #: at most this many times the file's rows are put on the grid (an outage of weeks in a
 #: record of hours is not a gap to bridge: the strict reader's error stands)
@@ -67,6 +73,13 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
     """
     cols, grid_rows = missing_rows_as_gaps(cols, source=source, first_row=first_row,
                                            warn=warn)
+    if cols.get("SP") is not None:
+        # a set point logged only when it changes is held, not cut at (its blank cells
+        # are no gap in a measurement); the note is the strict reader's, given once here
+        sp, note = hold_setpoint(cols["SP"], source, first_row)
+        cols = {**cols, "SP": sp}
+        if note and warn:
+            user_warning(note)
     present = {k: np.asarray(v, float) for k, v in cols.items() if v is not None}
     missing = np.zeros(len(present["t"]), bool)
     for k, v in present.items():

@@ -223,7 +223,8 @@ def test_compare_checks_every_folder_before_any_work(tmp_path, capsys):
     a = tmp_path / "A"
     a.mkdir()
     _recording(a / "L1.csv")
-    (a / "labels.csv").write_text("loop,label\nL1,stiction\n")
+    _recording(a / "L2.csv")
+    (a / "labels.csv").write_text("loop,label\nL1,stiction\nL2,no_stiction\n")
     msg = _one_line_exit_2(capsys, ["compare", str(a), str(tmp_path / "nope"), "--out",
                                     str(tmp_path / "out"), "--jobs", "1"])
     assert "nope: no such directory" in msg
@@ -352,3 +353,80 @@ def test_a_true_false_column_is_refused_from_parquet_as_from_csv(tmp_path):
     frame.to_csv(tmp_path / "b.csv", index=False)
     with pytest.raises(InputError, match="not a number"):
         read_recording(tmp_path / "b.csv")
+
+
+def test_a_report_that_cannot_be_written_whole_leaves_nothing_and_names_the_path(
+        tmp_path, capsys):
+    """A report file that cannot be written (here a directory in the way of
+    summary.md) fails the command before any file is moved into the report directory,
+    and the error names the user's path, not a staging file (a first version left three
+    figures behind and named '.summary.md.7w1tfhts.tmp')."""
+    rec = _recording(tmp_path / "rec.csv")
+    rep = tmp_path / "rep"
+    (rep / "summary.md").mkdir(parents=True)
+    msg = _one_line_exit_2(capsys, ["diagnose", str(rec), "--json", str(tmp_path / "o.json"),
+                                    "--report", str(rep)])
+    assert f"{rep / 'summary.md'}: Is a directory" in msg and ".tmp" not in msg
+    assert sorted(p.name for p in rep.iterdir()) == ["summary.md"]
+    assert not (tmp_path / "o.json").exists()
+    assert not list(tmp_path.glob(".rep.*"))  # the staging directory is gone
+
+
+def test_a_full_disk_names_the_output():
+    """An error with no file name (a full disk) names the output it was writing."""
+    import errno
+
+    from stictionbench.io import _named
+
+    exc = _named(OSError(errno.ENOSPC, "No space left on device"), {"/x/.o.json.1.tmp": "o.json"})
+    assert (exc.filename, exc.strerror) == ("o.json", "No space left on device")
+    other = OSError(errno.ENOENT, "No such file", "input.csv")
+    assert _named(other, {"/x/.o.json.1.tmp": "o.json"}) is other
+
+
+def test_labels_that_are_numbers_are_refused_and_odd_classes_named(tmp_path, capsys):
+    """0/1 labels would all be scored as no stiction; they are refused. A class other
+    than stiction and no_stiction (a typo such as 'stiktion') and a recording without a
+    label each get one warning line."""
+    from stictionbench.errors import InputError
+    from stictionbench.realdata.datasets import load_csv_dir, read_labels
+
+    f = tmp_path / "labels.csv"
+    for value in ("1", "0", "yes", "TRUE", "1.0"):
+        f.write_text(f"loop,label\na,{value}\n")
+        with pytest.raises(InputError, match="number or a yes/no"):
+            read_labels(f)
+    for name in ("a", "b", "c"):
+        _recording(tmp_path / f"{name}.csv")
+    f.write_text("loop,label\na,stiction\nb,stiktion\n")
+    recs, _ = load_csv_dir(tmp_path, warn=False)
+    assert recs["b"].meta["label"] == "stiktion"
+    err = capsys.readouterr().err
+    assert "scored as no stiction: stiktion" in err
+    assert "1 recording(s) without a label, left out of the scores: c" in err
+
+
+def test_balanced_accuracy_needs_both_classes(tmp_path, capsys):
+    """A batch whose labelled loops are all sticky computes no balanced accuracy (a
+    first version printed the sticky loops' recall as one) and says why."""
+    for name in ("a", "b"):
+        _recording(tmp_path / f"{name}.csv")
+    (tmp_path / "labels.csv").write_text("loop,label\na,stiction\nb,stiction\n")
+    out = tmp_path / "o.json"
+    assert main(["batch", str(tmp_path), "--json", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert res["scores"]["balanced_accuracy_by_group"] is None
+    assert "of one class only" in capsys.readouterr().err
+
+
+def test_compare_refuses_loops_of_one_class(tmp_path, capsys):
+    """A consensus cannot be trained or scored on sticky loops alone (a first version
+    trained one and reported exit 0)."""
+    a = tmp_path / "A"
+    a.mkdir()
+    _recording(a / "L1.csv")
+    (a / "labels.csv").write_text("loop,label\nL1,stiction\n")
+    msg = _one_line_exit_2(capsys, ["compare", str(a), "--out", str(tmp_path / "out"),
+                                    "--jobs", "1"])
+    assert "both classes" in msg and "stiction only" in msg
+    assert not (tmp_path / "out").exists()

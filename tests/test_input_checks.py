@@ -147,9 +147,11 @@ def test_compare_says_which_labelled_loop_it_left_out(tmp_path, capsys):
     from stictionbench.realdata.comparison import load_folder
 
     write_recording(_loop(), tmp_path / "good.csv")
+    write_recording(_loop(), tmp_path / "fine.csv")
     (tmp_path / "bad.csv").write_text("t,PV,OP\n0,abc,1\n1,2,3\n")
-    (tmp_path / "labels.csv").write_text("loop,label\ngood,stiction\nbad,no_stiction\n")
-    assert list(load_folder(tmp_path)) == ["good"]
+    (tmp_path / "labels.csv").write_text("loop,label\ngood,stiction\nbad,no_stiction\n"
+                                         "fine,no_stiction\n")
+    assert list(load_folder(tmp_path)) == ["fine", "good"]
     err = capsys.readouterr().err
     assert "1 labelled loop(s) left out" in err and "bad.csv" in err
 

@@ -184,6 +184,34 @@ def test_long_gaps_cut_the_record_into_usable_stretches(tmp_path, capsys):
     assert stretches(m) == []
 
 
+def test_a_set_point_logged_only_when_it_changes_is_held(tmp_path, capsys):
+    """Blank SP cells between logged changes are held (a step signal), by both readers,
+    with a warning, and PV and OP are kept whole; a long blank start makes SP unknown
+    there, so it is read as not recorded. A first version refused the file ("gap of 49
+    missing values") or cut PV and OP to the rows where SP was logged."""
+    from stictionbench.io import read_longest_stretch
+
+    n = 1000
+    t = np.arange(n, dtype=float)
+    sp = np.full(n, np.nan)
+    sp[0], sp[400], sp[700] = 50.0, 55.0, 52.0
+    pv, op = np.sin(t / 15.0), np.cos(t / 15.0)
+    p = tmp_path / "sp_on_change.csv"
+    pd.DataFrame({"t": t, "SP": sp, "PV": pv, "OP": op}).to_csv(p, index=False)
+    for rec in (read_recording(p), read_longest_stretch(p)):
+        assert len(rec) == n
+        assert rec.SP[:400].tolist() == [50.0] * 400
+        assert rec.SP[400:700].tolist() == [55.0] * 300 and rec.SP[-1] == 52.0
+    assert "holding the last logged set point" in capsys.readouterr().err
+    late = sp.copy()
+    late[0] = np.nan  # nothing logged before row 400
+    q = tmp_path / "sp_late.csv"
+    pd.DataFrame({"t": t, "SP": late, "PV": pv, "OP": op}).to_csv(q, index=False)
+    rec = read_recording(q)
+    assert rec.SP is None and len(rec) == n
+    assert "SP is read as not recorded" in capsys.readouterr().err
+
+
 def test_rows_absent_from_the_file_are_gaps_like_empty_cells(tmp_path, capsys):
     """An outage exported as absent rows (time jumps by whole sampling intervals) is read
     as the same outage exported as empty cells: short ones interpolated, long ones cut,

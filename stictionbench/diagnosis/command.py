@@ -69,9 +69,11 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.report:
         # the figures' plotting stack is imported only when asked for (about 0.6 s of
         # a 3000-sample diagnosis's 3 s otherwise; benchmarks/test_bench_cli.py)
+        from ..io import atomic_directory
         from .report import write_report
 
-        write_report(d, args.report)
+        with atomic_directory(args.report) as stage:  # every figure and summary, or none
+            write_report(d, stage)
     write_text(args.json, text)
     f = d.fit
     params = ", ".join(f"{k}={v:.3g}" for k, v in d.parameters.items())
@@ -115,13 +117,14 @@ def _safe(o):
 def add_command(sub) -> None:
     p = sub.add_parser("diagnose", help="locate and explain the gap between a nominal "
                                         "model and a recording")
-    p.add_argument("recording", help="CSV/Parquet with t, SP, PV, OP (MV optional), or an "
+    p.add_argument("recording", help="CSV/Parquet with t, PV, OP (SP, MV optional), or an "
                                      "ISDB-layout .mat file (with --loop)")
     p.add_argument("--loop", metavar="NAME",
                    help="the loop of a .mat file holding several: its book name (CHEM10) "
                         "or sector.loopN (chemicals.loop10)")
     p.add_argument("--model", help="nominal model YAML (identified from the data if absent)")
-    p.add_argument("--json", required=False, metavar="OUT.json")
+    p.add_argument("--json", required=False, metavar="OUT.json",
+                   help="write the diagnosis here (required)")
     p.add_argument("--report", metavar="DIR", help="write figures and summary.md here")
     p.add_argument("--op-range", nargs=2, type=float, metavar=("LO", "HI"),
                    help="OP's 0 and 100 %% in its own units, for the valve characteristic "

@@ -133,9 +133,12 @@ def add_command(sub: argparse._SubParsersAction) -> None:
     e.add_argument("overrides", nargs="*", metavar="estimator=NAME",
                    help="Hydra-style choice from conf/estimator/: estimator=xcum "
                         "estimator.max_delay=50 (instead of --method/--param)")
-    e.add_argument("--method", default=None)
+    e.add_argument("--method", default=None, metavar="NAME",
+                   help="a registered estimator (xcorr, xcum, bicoherence, oscillation, "
+                        "ellipse, horch, he, area_ratio, kano, yamashita, hagglund, ...)")
     e.add_argument("--x", default=None, help="first signal (default: the estimator's)")
     e.add_argument("--y", default=None, help="second signal (default: the estimator's)")
-    e.add_argument("--param", action="append", metavar="KEY=VALUE")
+    e.add_argument("--param", action="append", metavar="KEY=VALUE",
+                   help="an estimator parameter (repeat for several): --param max_delay=50")
     e.add_argument("--json", metavar="OUT", help="write the result as JSON")
     e.set_defaults(func=cmd_estimate)

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..errors import InputError
+from ..errors import InputError, user_warning
 
 
 def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
@@ -54,7 +54,7 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
         delayed(judge)(recs[n], n, rule, diagnose=diagnose) for n in names)
     # the bar moves when a recording is finished, not when it is dispatched
     done = {e["name"]: e for e in tqdm(results, total=len(names), desc="batch",
-                                       unit="rec")}
+                                       unit="rec", disable=None)}
     entries = [done[n] for n in names]
     for e in entries:
         meta = recs[e["name"]].meta
@@ -122,9 +122,14 @@ def cmd_batch(args: argparse.Namespace) -> int:
           + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
           + (f"; skipped {len(skipped)} ({', '.join(f for f, _ in skipped)})" if skipped else ""))
     if "balanced_accuracy_by_group" in scores:
-        print(f"balanced accuracy by loop: {scores['balanced_accuracy_by_group']:.3f} "
-              f"(leave-one-group-out {scores['balanced_accuracy_logo']:.3f}); unusable "
-              f"loops: {', '.join(scores['unusable_groups']) or 'none'}")
+        if np.isnan(scores["balanced_accuracy_by_group"]):
+            user_warning(f"{args.directory}: the labelled loops are of one class only, so "
+                         "no balanced accuracy is computed (it needs sticky valves and "
+                         "others)")
+        else:
+            print(f"balanced accuracy by loop: {scores['balanced_accuracy_by_group']:.3f} "
+                  f"(leave-one-group-out {scores['balanced_accuracy_logo']:.3f}); "
+                  f"unusable loops: {', '.join(scores['unusable_groups']) or 'none'}")
     return 0
 
 

@@ -46,10 +46,12 @@ def add_command(subparsers: Any) -> None:
 
     # -- batch
     p = sub.add_parser("batch", help="stiction verdicts for a folder of recordings")
-    p.add_argument("directory")
-    p.add_argument("--labels", help="labels CSV (loop, label[, group])")
-    p.add_argument("--json", metavar="OUT.json")
-    p.add_argument("--report", metavar="DIR")
+    p.add_argument("directory", help="folder of CSV recordings (t, PV, OP; SP, MV "
+                                     "optional); not searched recursively")
+    p.add_argument("--labels", help="labels CSV (loop, label[, group]); default: the "
+                                    "folder's labels.csv when there is one")
+    p.add_argument("--json", metavar="OUT.json", help="write the verdicts here (required)")
+    p.add_argument("--report", metavar="DIR", help="write tables and figures here")
     p.add_argument("--jobs", type=jobs_count, default=2,
                    help="parallel workers (default 2; -1: every core)")
     p.add_argument("--diagnose", choices=("none", "flagged", "all"), default="none",

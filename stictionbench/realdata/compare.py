@@ -79,12 +79,16 @@ def loop_verdicts(windows: list[dict[str, Any]], methods: Iterable[str],
 
 def balanced_accuracy(labels: Iterable[str | None], verdicts: Iterable[str]) -> float:
     """Mean of the recall on stiction loops and on non-stiction loops; a verdict other
-    than ``stiction`` counts as "not flagged". Unlabelled loops are left out.
+    than ``stiction`` counts as "not flagged". Unlabelled loops are left out; ``nan``
+    unless both classes are there (a first version gave the one class's recall, which
+    read as a balanced accuracy).
 
     Examples
     --------
     >>> balanced_accuracy(["stiction", "no_stiction"], ["stiction", "inconclusive"])
     1.0
+    >>> balanced_accuracy(["stiction", "stiction", None], ["stiction", "no_stiction", "x"])
+    nan
     """
     pairs = [(lab, v == "stiction") for lab, v in zip(labels, verdicts, strict=True)
              if lab is not None]
@@ -93,7 +97,7 @@ def balanced_accuracy(labels: Iterable[str | None], verdicts: Iterable[str]) -> 
         hits = [f == flag for lab, f in pairs if lab == cls]
         if hits:
             rec.append(float(np.mean(hits)))
-    return float(np.mean(rec)) if rec else float("nan")
+    return float(np.mean(rec)) if len(rec) == 2 else float("nan")
 
 
 def method_rates(loops: pd.DataFrame, methods: Iterable[str]) -> pd.DataFrame:

@@ -42,6 +42,13 @@ def load_folder(directory: str | Path) -> dict[str, Any]:
     if not recs:
         raise InputError(f"{d}: no recordings")
     table = read_labels(labels)
+    from .compare import binary
+
+    classes = {binary(r.meta.get("label")) for r in recs.values()} - {None}
+    if classes != {"stiction", "no_stiction"}:
+        raise InputError(f"{d}: compare needs labelled loops of both classes (a sticky "
+                         f"valve and not); the labels here give "
+                         f"{' and '.join(sorted(classes)) or 'no recording a label'} only")
     lost = [(f, why) for f, why in skipped if Path(f).stem in table.index]
     if lost:  # a labelled loop left out changes every rate: say which and why
         user_warning(f"{d}: {len(lost)} labelled loop(s) left out of the comparison: "
@@ -65,7 +72,8 @@ def run_folder(directory: str | Path, jobs: int = 2, recs: dict[str, Any] | None
     names = list(recs)
     gen = Parallel(n_jobs=jobs, return_as="generator_unordered")(
         delayed(window_calls)(recs[n], n) for n in names)
-    done = {w["name"]: w for w in tqdm(gen, total=len(names), desc=d.name, unit="rec")}
+    done = {w["name"]: w for w in tqdm(gen, total=len(names), desc=d.name, unit="rec",
+                                                disable=None)}
     windows = [done[n] for n in names]
     return windows, loop_verdicts(windows, METHODS)
 

@@ -466,13 +466,35 @@ def read_labels(path: str | os.PathLike[str]) -> pd.DataFrame:
     return df.set_index("loop", drop=False).rename_axis(None)
 
 
+#: labels that say yes or no without saying to what (refused: a 1 or a "yes" would be
+#: scored as no stiction, since only ``stiction`` is)
+_YES_NO = frozenset({"true", "false", "yes", "no", "y", "n", "t", "f"})
+
+
 def _label(value: Any, path: Path) -> str:
     """A label as scored: case, spaces and hyphens normalised (``Stiction`` and
     ``no stiction`` are ``stiction`` and ``no_stiction``); a label that mentions
     stiction otherwise (``sticky valve?``, ``stiction suspected``) is refused as
     ambiguous, since anything but ``stiction`` is scored as no stiction (the ISDB's
-    classes ``deadzone+tight_tuning``, ``disturbance`` and the like)."""
+    classes ``deadzone+tight_tuning``, ``disturbance`` and the like); so is a number or
+    a yes/no (``1``, ``0``, ``true``).
+
+    Examples
+    --------
+    >>> _label(" No-Stiction ", Path("l.csv")), _label("disturbance", Path("l.csv"))
+    ('no_stiction', 'disturbance')
+    >>> try:
+    ...     _label("1", Path("l.csv"))
+    ... except InputError as exc:
+    ...     print(str(exc)[:45])
+    l.csv: label '1' is a number or a yes/no: wri
+    """
     text = "_".join(str(value).strip().lower().replace("-", " ").split())
+    if text in _YES_NO or text.replace(".", "", 1).lstrip("+-").isdigit():
+        raise InputError(f"{path}: label {str(value)!r} is a number or a yes/no: write "
+                         "'stiction' for a sticking valve and 'no_stiction' (or the "
+                         "loop's class, e.g. 'disturbance') otherwise; a 1 would be "
+                         "scored as no stiction")
     if "stic" in text and text not in ("stiction", "no_stiction"):
         raise InputError(f"{path}: label {str(value)!r} is ambiguous: write 'stiction' "
                          "for a sticking valve and 'no_stiction' (or the loop's class, "
@@ -573,6 +595,8 @@ def load_csv_dir(
         for name, rec in _stretch_names(f.stem, parts):
             recs[name] = _with_meta(rec, {"name": name, "group": f.stem,
                                           **_label_meta(table, f.stem)})
+    if table is not None:
+        label_notes(table, recs, d)
     if table is not None:  # a labelled loop without its file: a typo or a lost file
         stems = {f.stem for f in d.glob("*.csv")}
         orphans = [str(k) for k in table.index if str(k) not in stems]
@@ -581,6 +605,22 @@ def load_csv_dir(
             user_warning(f"{d}: {len(orphans)} labelled loop(s) with no recording in the "
                          f"folder: {shown}")
     return recs, skipped
+
+
+def label_notes(table: pd.DataFrame, recs: Mapping[str, Recording], where: Any) -> None:
+    """One warning line each: the label classes scored as no stiction that are not
+    ``no_stiction`` (a typo such as ``stiktion`` would be one), and the recordings
+    the labels table does not label (left out of every score)."""
+    other = sorted({str(v) for v in table["label"].dropna()} - {"stiction", "no_stiction"})
+    if other:
+        user_warning(f"{where}: label(s) scored as no stiction: {', '.join(other[:6])}"
+                     + (" …" if len(other) > 6 else "") + " (only 'stiction' is a sticky "
+                     "valve)")
+    unlabelled = sorted(n for n, r in recs.items() if r.meta.get("label") is None)
+    if unlabelled:
+        shown = ", ".join(unlabelled[:5]) + (" …" if len(unlabelled) > 5 else "")
+        user_warning(f"{where}: {len(unlabelled)} recording(s) without a label, left out "
+                     f"of the scores: {shown}")
 
 
 def _stretch_names(stem: str, parts: list[Recording]) -> list[tuple[str, Recording]]:
