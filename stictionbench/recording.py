@@ -21,6 +21,11 @@ SIGNALS = ("SP", "PV", "OP", "MV")
 REQUIRED = ("t", "PV", "OP")
 MIN_SAMPLES = 100
 MAX_INTERPOLATED_GAP = 5
+
+#: rows absent from a file (whole sampling intervals missing) are put on the uniform grid
+#: as missing samples up to this many times the file's rows (an outage of weeks in a record
+#: of hours is not a gap to bridge: :func:`.stretches.missing_rows_as_gaps`)
+MAX_GRID_GROWTH = 4.0
 #: largest magnitude accepted in the time column: beyond it squares and variances
 #: overflow double precision (no clock records such numbers; epoch nanoseconds are 1e18)
 MAX_MAGNITUDE = 1e100
@@ -317,6 +322,16 @@ def _uniform_step(tt: np.ndarray, source: str, first_row: int) -> float:
     off = np.abs(dt - Ts) > UNIFORM_TOLERANCE * Ts
     if off.any():
         i = int(np.argmax(off)) + 1
+        k = np.rint(dt / Ts)
+        if np.all(np.abs(dt - k * Ts) <= UNIFORM_TOLERANCE * Ts):  # whole intervals absent
+            grid = int(k.sum()) + 1
+            why = (f"longer than the stretch readers bridge ({MAX_GRID_GROWTH:g} times "
+                   "the file's rows)" if grid > MAX_GRID_GROWTH * tt.size else
+                   "which only the commands that read a record's usable stretches bridge")
+            raise InputError(
+                f"{source}: row {i + first_row}, column t: the time jumps by "
+                f"{int(k[i - 1])} sampling intervals ({dt[i - 1]:g} s): rows absent from "
+                f"the file, an outage {why}; cut the file at it")
         raise InputError(
             f"{source}: row {i + first_row}, column t: sampling is not uniform "
             f"(step {dt[i - 1]:g} s vs median {Ts:g} s); resample to a uniform grid "

@@ -22,16 +22,13 @@ import numpy as np
 
 from .errors import user_warning
 from .recording import (
+    MAX_GRID_GROWTH,
     MAX_INTERPOLATED_GAP,
     MIN_SAMPLES,
     UNIFORM_TOLERANCE,
     Recording,
     hold_setpoint,
 )
-
-#: at most this many times the file's rows are put on the grid (an outage of weeks in a
-#: record of hours is not a gap to bridge: the strict reader's error stands)
-MAX_GRID_GROWTH = 4.0
 
 
 def stretches(missing: np.ndarray, *, max_gap: int = MAX_INTERPOLATED_GAP,

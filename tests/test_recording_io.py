@@ -227,8 +227,10 @@ def test_rows_absent_from_the_file_are_gaps_like_empty_cells(tmp_path, capsys):
     pc, pr = tmp_path / "cells.csv", tmp_path / "rows.csv"
     cells.to_csv(pc, index=False)
     rows.to_csv(pr, index=False)
-    with pytest.raises(InputError, match="sampling is not uniform"):
-        read_recording(pr)  # the strict reader is unchanged
+    with pytest.raises(InputError, match="row 302, column t: the time jumps by 3 sampling "
+                                         "intervals.*only the commands that read a "
+                                         "record's usable stretches"):
+        read_recording(pr)  # the strict reader refuses, saying what it met
     a, b = read_stretches(pc, warn=False), read_stretches(pr, warn=True)
     assert len(a) == len(b) == 2
     for x, y in zip(a, b, strict=True):
@@ -375,3 +377,19 @@ def test_an_empty_optional_column_is_a_signal_not_recorded(tmp_path):
                                                    r.split(",")[3:]) for r in lines[1:]]))
     with pytest.raises(InputError, match="column PV: gap"):
         read_recording(q)
+
+
+def test_an_outage_longer_than_the_grid_bridges_is_named_as_an_outage(tmp_path):
+    """A one-hour outage in a 1000-sample, 1 s record (rows absent from the file) is
+    longer than the stretch readers bridge; the message says so, not "sampling is not
+    uniform" (a first version's message, which hid the cause)."""
+    from stictionbench.io import read_longest_stretch
+
+    t = np.arange(1000.0)
+    t[600:] += 3600.0
+    p = tmp_path / "outage.csv"
+    pd.DataFrame({"t": t, "PV": np.sin(t / 15.0), "OP": np.cos(t / 15.0)}).to_csv(
+        p, index=False)
+    with pytest.raises(InputError, match=r"row 602, column t: the time jumps by 3601 "
+                                         r"sampling intervals \(3601 s\).*cut the file"):
+        read_longest_stretch(p)
