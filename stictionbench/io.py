@@ -139,6 +139,8 @@ def check_input_file(path: str | os.PathLike[str], expected: str = "a recording 
         raise InputError(f"{p}: no such file")
     if p.is_dir():
         raise InputError(f"{p}: is a directory, expected {expected}")
+    if not p.is_file():  # a pipe, a device or a socket: not read (a read could block)
+        raise InputError(f"{p}: not a regular file, expected {expected}")
     if p.stat().st_size == 0:
         raise InputError(f"{p}: empty file")
     return p

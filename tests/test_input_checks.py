@@ -167,3 +167,18 @@ def test_estimate_names_an_unknown_signal_first(tmp_path, capsys):
     write_recording(_loop(), tmp_path / "r.csv")
     assert main(["estimate", str(tmp_path / "r.csv"), "--method", "xcorr", "--x", "ZZ"]) == 2
     assert "unknown signal 'ZZ'" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes (POSIX)")
+def test_a_pipe_or_a_folder_where_a_file_belongs_is_named_for_what_it_is(tmp_path, capsys):
+    """A named pipe given as the recording is refused as not a regular file (a first
+    version called it an empty file), and a folder given as the model as a folder (was
+    'no such model file')."""
+    os.mkfifo(tmp_path / "pipe.csv")
+    assert main(["estimate", str(tmp_path / "pipe.csv"), "--method", "horch"]) == 2
+    assert "pipe.csv: not a regular file, expected a recording file" in \
+        capsys.readouterr().err
+    write_recording(_loop(), tmp_path / "r.csv")
+    assert main(["diagnose", str(tmp_path / "r.csv"), "--model", str(tmp_path), "--json",
+                 str(tmp_path / "o.json")]) == 2
+    assert "is a directory, expected a model YAML file" in capsys.readouterr().err

@@ -81,7 +81,10 @@ def load_model(path: str | Path) -> NominalModel:
     """
     p = Path(path)
     if not p.is_file():
-        raise InputError(f"{p}: no such model file")
+        raise InputError(f"{p}: " + ("is a directory, expected a model YAML file"
+                                     if p.is_dir() else "not a regular file, expected a "
+                                     "model YAML file" if p.exists() else
+                                     "no such model file"))
     try:
         doc = strict_yaml.load(p.read_text(encoding="utf-8"))
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
