@@ -430,3 +430,17 @@ def test_compare_refuses_loops_of_one_class(tmp_path, capsys):
                                     "--jobs", "1"])
     assert "both classes" in msg and "stiction only" in msg
     assert not (tmp_path / "out").exists()
+
+
+def test_an_unusable_batch_entry_has_the_keys_every_entry_has(tmp_path):
+    """An entry whose data cannot support a verdict (a dead PV) keeps the entry's keys
+    with their types: ``notes`` an empty list (a first version left it out, read as
+    null), ``confidence`` 1.0 (sure that the data are unusable)."""
+    import stictionbench as sb
+    from stictionbench.realdata.verdict import judge
+
+    t = np.arange(800.0)
+    rec = sb.Recording.from_arrays(t, np.full(800, 3.5e-44), 50 + np.sin(t / 9.0),
+                                   warn=False)
+    e = judge(rec, "dead")
+    assert e["verdict"] == "unusable" and e["notes"] == [] and e["confidence"] == 1.0

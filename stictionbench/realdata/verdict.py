@@ -52,7 +52,7 @@ def judge(rec: Recording, name: str, consensus=None, *,
                         for m in calls if hasattr(calls[m], "verdict")}
     if not q.usable:
         entry.update(verdict="unusable", consensus="unusable", confidence=1.0,
-                     reason="; ".join(q.reasons))
+                     reason="; ".join(q.reasons), notes=[])
         return entry
     r = decimate_mean(rec)
     entry.update(features(r))
