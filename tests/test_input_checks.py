@@ -182,3 +182,12 @@ def test_a_pipe_or_a_folder_where_a_file_belongs_is_named_for_what_it_is(tmp_pat
     assert main(["diagnose", str(tmp_path / "r.csv"), "--model", str(tmp_path), "--json",
                  str(tmp_path / "o.json")]) == 2
     assert "is a directory, expected a model YAML file" in capsys.readouterr().err
+
+
+def test_a_param_given_twice_is_refused(tmp_path, capsys):
+    """``--param k=1 --param k=2`` kept the last value silently; which was meant?"""
+    write_recording(_loop(), tmp_path / "r.csv")
+    assert main(["estimate", str(tmp_path / "r.csv"), "--method", "xcorr", "--param",
+                 "max_delay=10", "--param", "max_delay=20"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--param max_delay given twice (10 and 20)" in err[0]

@@ -79,6 +79,9 @@ def build_estimator(method: str | None, params: Sequence[str] | None,
         if "=" not in tok:
             raise InputError(f"--param expects key=value, got {tok!r}")
         k, _, v = tok.partition("=")
+        if k in kw:  # which one was meant? (a model YAML's repeated key is refused too)
+            raise InputError(f"--param {k} given twice ({kw[k]!r} and {parse_value(v)!r}); "
+                             "give it once")
         kw[k] = parse_value(v)
     return make(method, **kw)
 
