@@ -7,6 +7,7 @@ exit code 2; no traceback, no half-written output file.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import signal
 import sys
@@ -88,7 +89,12 @@ def _main(argv: Sequence[str] | None) -> int:
             # own but --help, which lists every sub-command)
             parser = build_parser(argv[0] if argv else None)
             args = parser.parse_args(argv)
-            code = int(args.func(args) or 0)
+            if getattr(args, "json", None) == "-":
+                # the JSON alone on stdout (for a pipe into jq); what the command prints
+                # besides goes to stderr
+                code = _json_to_stdout(args)
+            else:
+                code = int(args.func(args) or 0)
             sys.stdout.flush()  # a closed pipe raises here, not at the interpreter's exit
         for w in held:
             print(f"stictionbench: warning: {w}", file=sys.stderr)
@@ -109,6 +115,19 @@ def _main(argv: Sequence[str] | None) -> int:
     except KeyboardInterrupt:
         print("stictionbench: interrupted", file=sys.stderr)
         return 130
+
+
+def _json_to_stdout(args: argparse.Namespace) -> int:
+    """Run the command with ``--json -``: its JSON on stdout, its other printing on
+    stderr."""
+    from . import io as sio
+
+    sio.stdout_stream = sys.stdout
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            return int(args.func(args) or 0)
+    finally:
+        sio.stdout_stream = None
 
 
 def _error(msg: str, held: list[str]) -> int:

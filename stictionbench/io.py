@@ -124,8 +124,25 @@ def atomic_directory(path: str | os.PathLike[str]) -> Iterator[Path]:
         shutil.rmtree(stage, ignore_errors=True)
 
 
+#: the output name that means standard output (``--json -``, as Unix tools read it)
+STDOUT = "-"
+
+#: where an output named :data:`STDOUT` goes: the command line's standard output, which
+#: :func:`stictionbench.cli.main` sets while it sends the command's own printing to
+#: stderr (``None``: ``sys.stdout``)
+stdout_stream: Any = None
+
+
 def write_text(path: str | os.PathLike[str], text: str) -> None:
-    """Write ``text`` to ``path`` atomically (UTF-8)."""
+    """Write ``text`` to ``path`` atomically (UTF-8); to standard output when ``path``
+    is :data:`STDOUT` (``-``)."""
+    if str(path) == STDOUT:
+        import sys
+
+        stream = stdout_stream or sys.stdout
+        stream.write(text)
+        stream.flush()
+        return
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
 

@@ -195,7 +195,7 @@ def refuse_overwrite(outputs: Iterable[str | os.PathLike[str] | None],
     stictionbench.errors.InputError: ... is the input file ...; refusing to overwrite it
     """
     ins = [Path(p) for p in inputs if p is not None]
-    outs = [Path(p) for p in outputs if p is not None]
+    outs = [Path(p) for p in outputs if p is not None and str(p) != "-"]  # "-": stdout
     for out in outs:
         for src in ins:
             if src.is_dir():
@@ -243,7 +243,7 @@ def check_writable(files: Iterable[str | os.PathLike[str] | None] = (),
     """
     import tempfile
 
-    todo = [(Path(f), False) for f in files if f is not None]
+    todo = [(Path(f), False) for f in files if f is not None and str(f) != "-"]
     todo += [(Path(d), True) for d in dirs if d is not None]
     for out, is_dir in todo:
         if out.exists():

@@ -444,3 +444,27 @@ def test_an_unusable_batch_entry_has_the_keys_every_entry_has(tmp_path):
                                    warn=False)
     e = judge(rec, "dead")
     assert e["verdict"] == "unusable" and e["notes"] == [] and e["confidence"] == 1.0
+
+
+def test_json_dash_writes_the_json_alone_to_stdout(tmp_path, capsys):
+    """``--json -`` puts the JSON, and nothing else, on standard output (a pipe into jq);
+    the command's own printing goes to stderr, and no file named '-' is written (a
+    first version wrote one)."""
+    import os
+
+    rec = _recording(tmp_path / "rec.csv")
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        for argv in (["estimate", str(rec), "--method", "xcorr", "--x", "OP", "--y", "PV"],
+                     ["diagnose", str(rec)], ["batch", str(tmp_path)]):
+            assert main([*argv, "--json", "-"]) == 0
+            out, err = capsys.readouterr()
+            assert isinstance(json.loads(out), dict), argv
+            assert err.strip(), argv  # the table or summary line went to stderr
+            assert not (tmp_path / "-").exists()
+        assert main(["diagnose", str(tmp_path / "missing.csv"), "--json", "-"]) == 2
+        out, err = capsys.readouterr()
+        assert out == "" and len(err.strip().splitlines()) == 1
+    finally:
+        os.chdir(cwd)
