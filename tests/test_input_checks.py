@@ -191,3 +191,11 @@ def test_a_param_given_twice_is_refused(tmp_path, capsys):
                  "max_delay=10", "--param", "max_delay=20"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--param max_delay given twice (10 and 20)" in err[0]
+
+
+def test_the_time_column_is_not_a_signal_to_estimate_on(tmp_path, capsys):
+    """``--x t`` ran the estimator on the time stamps; it is refused in one line."""
+    write_recording(_loop(), tmp_path / "r.csv")
+    assert main(["estimate", str(tmp_path / "r.csv"), "--method", "xcorr", "--x", "t",
+                 "--y", "PV"]) == 2
+    assert "t is the time column, not a signal" in capsys.readouterr().err

@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..errors import InputError
 from ..recording import Recording
 from ..validation import Constraint, jsonable, validate_params
 
@@ -135,6 +136,10 @@ class Estimator:
             estimator's ``default_x`` / ``default_y``.
         """
         self.check_params()
+        for name in (x, y):
+            if name == "t":  # the time column: no estimator reads it as a signal
+                raise InputError("t is the time column, not a signal; use one of SP, PV, "
+                                 "OP, MV")
         xs = rec.signal(x or self.default_x)
         yname = y or self.default_y
         ys = rec.signal(yname) if yname else None
