@@ -205,6 +205,9 @@ def _as_columns(raw: dict[str, Any], source: str) -> dict[str, np.ndarray | None
     n = None
     for name, value in raw.items():
         if value is None:
+            if name in REQUIRED:  # a Recording has them all
+                raise InputError(f"{source}: column {name} is required (t, PV and OP are; "
+                                 "SP and MV are optional)")
             arrays[name] = None
             continue
         raw_arr = np.asarray(value)

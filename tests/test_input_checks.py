@@ -199,3 +199,85 @@ def test_the_time_column_is_not_a_signal_to_estimate_on(tmp_path, capsys):
     assert main(["estimate", str(tmp_path / "r.csv"), "--method", "xcorr", "--x", "t",
                  "--y", "PV"]) == 2
     assert "t is the time column, not a signal" in capsys.readouterr().err
+
+
+def test_a_long_step_response_is_fitted_by_knots_with_the_exact_fits_decision():
+    """Beyond MAX_RESPONSE_TAPS taps the gate's step response is a piecewise-linear
+    curve (the dense fit of every tap took 20-28 s and 1.1 GB on the README's tour
+    recording); on a window where both fit, they leave residuals of about the same
+    size and the same oscillation answer."""
+    from scipy.linalg import lstsq, toeplitz
+
+    from stictionbench.estimators import detector
+    from stictionbench.recording import Recording
+
+    rng = np.random.default_rng(0)
+    n, length = 4000, 1300
+    k = np.arange(n)
+    sp = 50.0 + 5.0 * (k >= 500) - 8.0 * (k >= 2100) + 4.0 * (k >= 3300)
+    lag = np.arange(1300)
+    ring = np.exp(-lag / 300) * np.cos(2 * np.pi * lag / 420)
+    e = np.convolve(np.r_[0, np.diff(sp)], ring)[:n] + 0.3 * np.sin(2 * np.pi * k / 150) \
+        + 0.05 * rng.standard_normal(n)
+    rec = Recording.from_arrays(k * 1.0, sp - e, np.zeros(n), SP=sp, warn=False)
+    assert length > detector.MAX_RESPONSE_TAPS
+    detector._RESIDUAL[0] = None
+    ours = detector.setpoint_residual(e, rec, length)
+    d = np.r_[0.0, np.diff(sp)]
+    design = np.column_stack([np.ones(n), toeplitz(d, np.zeros(length))])
+    exact = e - design @ lstsq(design, e, lapack_driver="gelsy")[0]
+    assert abs(np.var(ours) - np.var(exact)) < 0.05 * np.var(e)
+    assert detector.oscillation(ours).oscillating == detector.oscillation(exact).oscillating
+
+
+def test_a_model_built_in_python_meets_the_yaml_rules():
+    """diagnose() took any NominalModel as built: a gain of 0 or NaN gave the same
+    confident verdict as the true one, a time constant of 0 a ZeroDivisionError."""
+    from stictionbench.diagnosis.model import NominalModel
+
+    rec = _loop()
+    for model, what in ((NominalModel(float("nan"), 10.0, 1.0), "gain: must be finite"),
+                        (NominalModel(0.0, 10.0, 1.0), "gain: must not be zero"),
+                        (NominalModel(1.0, 0.0, 1.0), "time_constant: must be positive"),
+                        (NominalModel(1.0, 10.0, 1.0, 0.5, -3.0), "ti: must be positive"),
+                        ({"gain": 1.0}, "expected a NominalModel")):
+        with pytest.raises(InputError, match=what):
+            diagnose(rec, model)
+    with pytest.raises(InputError, match="alpha"):
+        diagnose(rec, alpha=2.0)
+
+
+def test_a_recording_needs_t_pv_and_op():
+    from stictionbench.recording import Recording
+
+    t = np.arange(300.0)
+    with pytest.raises(InputError, match="column PV is required"):
+        Recording.from_arrays(t, None, np.cos(t))
+    with pytest.raises(InputError, match="column t is required"):
+        Recording.from_arrays(None, t, t)
+
+
+def test_simulate_takes_numpy_numbers_and_refuses_what_cannot_be_held():
+    import stictionbench as sb
+
+    assert len(sb.simulate(duration=np.float64(300.0), seed=np.int64(4))) == 3001
+    with pytest.raises(InputError, match="at most 1e\\+07 are simulated"):
+        sb.simulate(duration=1e12)
+    with pytest.raises(InputError, match="too fine"):
+        sb.simulate(duration=300.0, dt=1e-12)
+    rec = sb.simulate(duration=300.0, overrides="valve=kano")  # one override, not letters
+    assert rec.meta["config"]["valve"]["_target_"].endswith("KanoValve")
+
+
+def test_sweep_estimator_parameters_as_the_readme_writes_them(tmp_path):
+    """estimators.in_seconds.max_delay=30 and estimators.params.xcorr.max_delay=20 were
+    refused as unknown keys unless prefixed with '+'; a window in seconds that is not a
+    number is refused before any run."""
+    from stictionbench.sweep.plan import make_plan
+
+    plan = make_plan("smoke", ["limit=1", "estimators.in_seconds.max_delay=30",
+                               "estimators.params.xcorr.max_delay=20"])
+    est = plan.runs[0].spec["estimators"]
+    assert est["in_seconds"]["max_delay"] == 30 and est["params"]["xcorr"]["max_delay"] == 20
+    with pytest.raises(InputError, match="estimators.in_seconds.max_delay: not a number"):
+        make_plan("smoke", ["limit=1", "estimators.in_seconds.max_delay=abc"])

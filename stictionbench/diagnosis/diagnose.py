@@ -87,7 +87,7 @@ from .locate import (
     oscillation_frequency,
     tone_periods,
 )
-from .model import NominalModel, fit_pi, identify_pi
+from .model import NominalModel, checked_model, fit_pi, identify_pi
 from .noise import FAMILIES as NOISE_FAMILIES
 from .noise import fit_noise_model
 from .op_limit import held_at_limit
@@ -916,6 +916,10 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
     Ind. Eng. Chem. Res. 44 (2005); Karra & Karim, Control Eng. Practice 17 (2009).
     """
     t0 = time.perf_counter()
+    if model is not None:  # a model built in Python meets the YAML file's rules
+        model = checked_model(model)
+    if not 0.0 < alpha < 1.0:
+        raise InputError(f"alpha: a test level between 0 and 1, got {alpha!r}")
     if test_highpass_order not in LIKELIHOOD_HIGHPASS_ORDERS:
         raise ValueError(f"test_highpass_order must be one of {LIKELIHOOD_HIGHPASS_ORDERS}, "
                          f"got {test_highpass_order}")

@@ -143,6 +143,52 @@ def load_model(path: str | Path) -> NominalModel:
     return NominalModel(gain, tau, theta, kc, ti, Ts, "given", op_range, period)
 
 
+def checked_model(model: Any) -> NominalModel:
+    """A model given to :func:`.diagnose.diagnose` from Python, held to the rules
+    :func:`load_model` applies to a YAML file (a path is read with it): finite numbers, a
+    gain other than zero, positive time constant, integral time and periods, a dead time
+    not negative, ``op_range`` ascending. A first version took any
+    :class:`NominalModel` as built: a gain of 0 or NaN gave the same confident verdict
+    as the true one, a time constant of 0 a ``ZeroDivisionError``.
+
+    Raises
+    ------
+    InputError
+        Naming the field and the rule.
+
+    Examples
+    --------
+    >>> checked_model(NominalModel(3.0, 10.0, 10.0, 0.2, 10.0)).gain
+    3.0
+    >>> try:
+    ...     checked_model(NominalModel(0.0, 10.0, 10.0))
+    ... except InputError as exc:
+    ...     print(exc)
+    model: gain: must not be zero
+    """
+    if isinstance(model, str | Path):
+        return load_model(model)
+    if not isinstance(model, NominalModel):
+        raise InputError(f"model: expected a NominalModel or a model YAML path, got "
+                         f"{type(model).__name__}")
+    w = "model"
+    gain = _num(w, "gain", model.gain)
+    if gain == 0:
+        raise InputError(f"{w}: gain: must not be zero")
+    _num(w, "time_constant", model.time_constant, positive=True)
+    _num(w, "dead_time", model.dead_time, nonneg=True)
+    if model.kc is not None:
+        _num(w, "kc", model.kc)
+    for key in ("ti", "sample_time", "controller_period"):
+        if getattr(model, key) is not None:
+            _num(w, key, getattr(model, key), positive=True)
+    if model.op_range is not None:
+        lo, hi = (_num(w, "op_range", v) for v in model.op_range)
+        if hi <= lo:
+            raise InputError(f"{w}: op_range: hi must exceed lo, got {model.op_range!r}")
+    return model
+
+
 #: share of the OP moves a PI fit must explain to count as the loop's controller
 MIN_PI_R2 = 0.5
 

@@ -35,7 +35,8 @@ def replicate(overrides: list[str] | tuple[str, ...] = ()) -> dict[str, Any]:
     """Run the replication; returns ``{"wall_s", "written"}``."""
     t0 = time.perf_counter()
     cfg = compose(list(overrides), config_name="experiment/paper")
-    cases = [str(c) for c in cfg.cases]
+    # cases=stiction names one case (it was read as the characters s, t, i ...)
+    cases = [str(cfg.cases)] if isinstance(cfg.cases, str) else [str(c) for c in cfg.cases]
     _check_cases(cases)
     check_config(cfg)
     full = set(cases) == set(CASES)

@@ -84,11 +84,14 @@ def simulate(
     >>> rec.columns
     ('t', 'SP', 'PV', 'OP', 'MV')
     """
+    if isinstance(overrides, str):  # one override, not its characters
+        overrides = [overrides]
     ov = list(overrides) + overrides_from_kwargs(kwargs)
     cfg = config_for(case, ov)  # composed once per distinct override set (cached)
+    # numpy numbers (np.arange's seeds, a duration computed with numpy) as Python's
     if duration is not None:
-        cfg.duration = duration
-    cfg.seed = seed
+        cfg.duration = duration.item() if isinstance(duration, np.generic) else duration
+    cfg.seed = seed.item() if isinstance(seed, np.generic) else seed
     return simulate_config(cfg)
 
 
@@ -132,6 +135,45 @@ def build(cfg: DictConfig) -> dict[str, Any]:
     return blocks
 
 
+#: the most recorded samples, controller executions or dead-time delay steps one
+#: simulation holds in memory (a few arrays of this many floats: under a gigabyte)
+MAX_SAMPLES = 10_000_000
+#: the most integration steps one simulation runs (about a minute of the numba loop)
+MAX_STEPS = 2_000_000_000
+
+
+def check_size(duration: float, Ts: float, dt: float, n: int, n_sub: int,
+               dead_time: float) -> None:
+    """Refuse, before any array is made, a simulation too large to hold or to run: more
+    than :data:`MAX_SAMPLES` recorded samples, controller executions or delay-line steps,
+    or more than :data:`MAX_STEPS` integration steps (the command line checked the first
+    alone; ``sb.simulate(duration=1e12)`` asked numpy for 73 TiB and ``dt=1e-12`` ended in
+    a ``MemoryError`` traceback).
+
+    Examples
+    --------
+    >>> check_size(2000.0, 0.1, 0.01, 20001, 10, 10.0)
+    >>> try:
+    ...     check_size(1e12, 0.1, 0.01, 10**13, 10, 10.0)
+    ... except InputError as exc:
+    ...     print(str(exc)[:60])
+    duration=1e+12 s at sample_time=0.1 s is 1e+13 samples; at m
+    """
+    if duration / Ts > MAX_SAMPLES:
+        raise InputError(f"duration={duration:g} s at sample_time={Ts:g} s is "
+                         f"{duration / Ts:.3g} samples; at most {MAX_SAMPLES:.0e} are "
+                         "simulated (split a longer study into several runs)")
+    if n > MAX_SAMPLES:
+        raise InputError(f"duration={duration:g} s is {n:.3g} controller executions; at "
+                         f"most {MAX_SAMPLES:.0e} are simulated (a slower controller."
+                         "sample_time, or a shorter run)")
+    if n * n_sub > MAX_STEPS or dead_time / dt > MAX_SAMPLES:
+        raise InputError(f"dt={dt:g} s is too fine for duration={duration:g} s and "
+                         f"dead_time={dead_time:g} s ({n * n_sub:.3g} integration steps, "
+                         f"{dead_time / dt:.3g} delay steps; at most {MAX_STEPS:.0e} and "
+                         f"{MAX_SAMPLES:.0e})")
+
+
 def simulate_config(cfg: DictConfig) -> Recording:
     """Run the closed loop described by a composed config."""
     duration = _number(cfg, "duration")
@@ -149,6 +191,8 @@ def simulate_config(cfg: DictConfig) -> Recording:
         raise InputError(f"sample_time ({Ts:g}) must be a multiple of controller.sample_time "
                          f"({hc:g})")
     n = int(math.floor(duration / hc + 1e-9)) + 1
+    check_size(duration, Ts, dt, n, n_sub,
+               number("process.dead_time", cfg.process.dead_time, low=0.0))
     if n // rec_every < 100:
         raise InputError(f"duration: {duration:g} s gives fewer than 100 samples at "
                          f"sample_time {Ts:g} s")

@@ -26,6 +26,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from ..config import _explain, conf_dir, group_options
 from ..errors import InputError
+from ..validation import number
 
 #: version of the row format; part of every run id, so changing it reruns everything
 SCHEMA = 1
@@ -212,6 +213,11 @@ def run_id(spec: dict[str, Any]) -> str:
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
+#: override keys under these mappings name estimator parameters, which are open (any
+#: constructor parameter of any column may be set)
+OPEN_KEYS = ("estimators.params.", "estimators.in_seconds.")
+
+
 def _set(tree: dict[str, Any], key: str, value: Any) -> None:
     parts = key.split(".")
     node = tree
@@ -242,6 +248,10 @@ def make_plan(name: str, tokens: Sequence[str]) -> Plan:
     for ov in parsed:
         if ov.is_sweep_override():
             cli_grid.append(ov)
+        elif ov.key_or_group.startswith(OPEN_KEYS) and not ov.input_line.startswith("+"):
+            # estimator parameters are open mappings: a key is added or replaced, as the
+            # README writes it (Hydra alone wanted a "+" before a key not yet there)
+            plain.append("++" + ov.input_line)
         else:
             plain.append(ov.input_line)
     for ov in parsed:
@@ -321,6 +331,10 @@ def _check_estimators(runs: list[Run]) -> None:
             if not isinstance(params, dict):
                 raise InputError(f"estimators.params.{key}: expected a mapping of parameters")
             make(by_prefix.get(key, key), **params)
+        for key, sec in (est.get("in_seconds") or {}).items():
+            # a window in seconds is a positive number (a typo became an error in every
+            # run's estimator columns, and the sweep still ended "ok")
+            number(f"estimators.in_seconds.{key}", sec, low=0.0, strict=True)
 
 
 def batch_size(cfg: DictConfig, pending: int, workers: int) -> int:
