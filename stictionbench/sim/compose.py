@@ -167,7 +167,8 @@ def check_size(duration: float, Ts: float, dt: float, n: int, n_sub: int,
         raise InputError(f"duration={duration:g} s is {n:.3g} controller executions; at "
                          f"most {MAX_SAMPLES:.0e} are simulated (a slower controller."
                          "sample_time, or a shorter run)")
-    if n * n_sub > MAX_STEPS or dead_time / dt > MAX_SAMPLES:
+    # a dead time longer than the run is refused as such by simulate_config
+    if n * n_sub > MAX_STEPS or (dead_time <= duration and dead_time / dt > MAX_SAMPLES):
         raise InputError(f"dt={dt:g} s is too fine for duration={duration:g} s and "
                          f"dead_time={dead_time:g} s ({n * n_sub:.3g} integration steps, "
                          f"{dead_time / dt:.3g} delay steps; at most {MAX_STEPS:.0e} and "
