@@ -233,15 +233,17 @@ def _read_columns(path: str | os.PathLike[str]) -> tuple[str, dict[str, Any], in
     raise InputError(f"{p}: unknown format {suffix!r}; use .csv or .parquet")
 
 
-def _csv_frame(p: Path, nrows: int | None = None) -> tuple[pd.DataFrame, str]:
+def csv_frame(p: Path, nrows: int | None = None, fields: int = len(REQUIRED)
+              ) -> tuple[pd.DataFrame, str]:
     """A CSV file as text cells (``nrows`` data rows; all when None), its delimiter
-    sniffed from the header line (:func:`_delimiter`), a byte-order mark dropped and the
-    column names stripped; ``(frame, delimiter)``."""
+    sniffed from the header line (:func:`_delimiter`, a header of at least ``fields``
+    names), a byte-order mark dropped and the column names stripped;
+    ``(frame, delimiter)``."""
     head = p.read_bytes()[:4096]
     encoding = _text_encoding(head)
     if encoding is None:
         raise InputError(f"{p}: binary data, not a CSV text file")
-    sep = _delimiter(head, encoding)
+    sep = _delimiter(head, encoding, fields)
     try:
         frame = pd.read_csv(p, sep=sep, dtype=str, keep_default_na=False, nrows=nrows,
                             skipinitialspace=True, encoding=encoding)
@@ -264,7 +266,7 @@ def _csv_frame(p: Path, nrows: int | None = None) -> tuple[pd.DataFrame, str]:
 
 
 def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
-    frame, sep = _csv_frame(p)
+    frame, sep = csv_frame(p)
     if sep != ",":
         # a CSV written with ';' or a tab is usually one with a decimal comma (the
         # spreadsheet export of a European locale): "1,5" is read as 1.5
@@ -274,11 +276,11 @@ def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
 
 
 def csv_columns(path: str | os.PathLike[str]) -> list[str] | None:
-    """The header of a CSV file as :func:`read_recording` reads it (:func:`_csv_frame`,
+    """The header of a CSV file as :func:`read_recording` reads it (:func:`csv_frame`,
     names made canonical by :func:`_canonical_columns`), or None when it cannot be read
     as text or is ambiguous (:func:`read_recording` then gives the precise message)."""
     try:
-        frame, _ = _csv_frame(Path(path), nrows=0)
+        frame, _ = csv_frame(Path(path), nrows=0)
         return [str(c) for c in _canonical_columns(frame, str(path)).columns]
     except (InputError, OSError, ValueError):
         return None
@@ -325,10 +327,10 @@ def _text_encoding(head: bytes) -> str | None:
     return None
 
 
-def _delimiter(head: bytes, encoding: str = "utf-8") -> str:
+def _delimiter(head: bytes, encoding: str = "utf-8", fields: int = len(REQUIRED)) -> str:
     """The delimiter of a CSV from its header line: the first of :data:`DELIMITERS` that
-    splits it into at least three fields (``t``, ``PV``, ``OP``), else ``,``; ``head``
-    is decoded with ``encoding`` (:func:`_text_encoding`).
+    splits it into at least ``fields`` fields (a recording's three, ``t``, ``PV``,
+    ``OP``), else ``,``; ``head`` is decoded with ``encoding`` (:func:`_text_encoding`).
 
     Examples
     --------
@@ -337,7 +339,7 @@ def _delimiter(head: bytes, encoding: str = "utf-8") -> str:
     """
     line = head.decode(encoding, errors="replace").lstrip("\ufeff").splitlines()[:1]
     for sep in DELIMITERS:
-        if line and len(line[0].split(sep)) >= len(REQUIRED):
+        if line and len(line[0].split(sep)) >= fields:
             return sep
     return ","
 

@@ -468,3 +468,17 @@ def test_json_dash_writes_the_json_alone_to_stdout(tmp_path, capsys):
         assert out == "" and len(err.strip().splitlines()) == 1
     finally:
         os.chdir(cwd)
+
+
+def test_labels_are_read_as_recordings_are(tmp_path):
+    """A labels table saved by a spreadsheet (';' separated, or UTF-16 with tabs) is
+    read like a recording saved the same way (a first version refused both), and its
+    numbers stay numbers."""
+    from stictionbench.realdata.datasets import read_labels
+
+    f = tmp_path / "labels.csv"
+    f.write_text("loop;label;Ts\na;stiction;10.5\nb;No-Stiction;1\n")
+    t = read_labels(f)
+    assert list(t.label) == ["stiction", "no_stiction"] and t.Ts.tolist() == [10.5, 1.0]
+    f.write_bytes("loop\tlabel\na\tstiction\nb\tdisturbance\n".encode("utf-16"))
+    assert list(read_labels(f).label) == ["stiction", "disturbance"]

@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError, user_warning
-from ..io import check_input_file, csv_columns, read_stretches
+from ..io import check_input_file, csv_columns, csv_frame, read_stretches
 from ..recording import REQUIRED, Recording
 
 #: ISDB sector field -> loop-name prefix used in the book (Jelali & Huang 2010)
@@ -443,12 +443,15 @@ def read_labels(path: str | os.PathLike[str]) -> pd.DataFrame:
     p = Path(path)
     if not p.is_file():
         raise InputError(f"{p}: no such file")
-    try:
-        df = pd.read_csv(p, dtype={"loop": str, "group": str})
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise InputError(f"{p}: not a readable labels CSV ({msg[:80]})") from None
-    df.columns = [str(c).strip() for c in df.columns]
+    # read as recordings are (io.csv_frame): ';' or tab separated, UTF-8 or UTF-16 (a
+    # spreadsheet's export), a byte-order mark; a first version took ',' and UTF-8 only
+    frame, _ = csv_frame(p, fields=2)  # loop, label
+    df = frame.apply(lambda c: c.str.strip()).replace("", np.nan)
+    for c in df.columns:  # numbers as numbers (a labels table's Ts, n, held_frac, ...)
+        if c not in ("loop", "group", "label"):
+            num = pd.to_numeric(df[c], errors="coerce")
+            if num.notna().sum() == df[c].notna().sum():
+                df[c] = num
     if "loop" not in df.columns:
         raise InputError(f"{p}: labels need a 'loop' column; found {', '.join(df.columns)}")
     if "label" not in df.columns:
