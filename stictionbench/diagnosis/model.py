@@ -12,7 +12,7 @@ YAML contract (``stictionbench diagnose --model MODEL.yaml``)::
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -103,11 +103,6 @@ def load_model(path: str | Path) -> NominalModel:
         raise InputError(f"{p}: unknown key(s) in process: "
                          f"{', '.join(sorted(map(str, extra)))} (gain, time_constant, "
                          "dead_time)")
-    gain = _num(str(p), "process.gain", proc["gain"])
-    if gain == 0:
-        raise InputError(f"{p}: process.gain: must not be zero")
-    tau = _num(str(p), "process.time_constant", proc["time_constant"], positive=True)
-    theta = _num(str(p), "process.dead_time", proc["dead_time"], nonneg=True)
     kc = ti = period = None
     ctrl = doc.get("controller")
     if ctrl is not None:
@@ -120,27 +115,22 @@ def load_model(path: str | Path) -> NominalModel:
         if extra:
             raise InputError(f"{p}: unknown key(s) in controller: "
                              f"{', '.join(sorted(map(str, extra)))} (kc, ti, sample_time)")
-        kc = _num(str(p), "controller.kc", ctrl["kc"])
-        ti = _num(str(p), "controller.ti", ctrl["ti"], positive=True)
-        if "sample_time" in ctrl:
-            period = _num(str(p), "controller.sample_time", ctrl["sample_time"],
-                          positive=True)
-    Ts = None
-    if "sample_time" in doc:
-        Ts = _num(str(p), "sample_time", doc["sample_time"], positive=True)
-    op_range = None
-    if "op_range" in doc:
-        r = doc["op_range"]
-        if not isinstance(r, list | tuple) or len(r) != 2:
-            raise InputError(f"{p}: op_range: expected [lo, hi], got {r!r}")
-        lo, hi = (_num(str(p), "op_range", v) for v in r)
-        if hi <= lo:
-            raise InputError(f"{p}: op_range: hi must exceed lo, got {r!r}")
-        op_range = (lo, hi)
+        kc, ti, period = ctrl["kc"], ctrl["ti"], ctrl.get("sample_time")
+        for key, value in (("kc", kc), ("ti", ti), ("sample_time", period)):
+            if value is None and key in ctrl:  # written, but empty (null)
+                raise InputError(f"{p}: controller.{key}: expected a number, got None")
+    r = doc.get("op_range")
+    if r is not None and (not isinstance(r, list | tuple) or len(r) != 2):
+        raise InputError(f"{p}: op_range: expected [lo, hi], got {r!r}")
+    if "sample_time" in doc and doc["sample_time"] is None:
+        raise InputError(f"{p}: sample_time: expected a number, got None")
     unknown = set(doc) - {"process", "controller", "sample_time", "op_range"}
     if unknown:
         raise InputError(f"{p}: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
-    return NominalModel(gain, tau, theta, kc, ti, Ts, "given", op_range, period)
+    raw = NominalModel(proc["gain"], proc["time_constant"], proc["dead_time"], kc, ti,
+                       doc.get("sample_time"), "given", None if r is None else tuple(r),
+                       period)
+    return _checked(raw, str(p), YAML_KEYS)
 
 
 def checked_model(model: Any) -> NominalModel:
@@ -171,22 +161,39 @@ def checked_model(model: Any) -> NominalModel:
     if not isinstance(model, NominalModel):
         raise InputError(f"model: expected a NominalModel or a model YAML path, got "
                          f"{type(model).__name__}")
-    w = "model"
-    gain = _num(w, "gain", model.gain)
+    return _checked(model, "model", {})
+
+
+#: the model's fields as a model YAML file names them (its messages use these)
+YAML_KEYS = {"gain": "process.gain", "time_constant": "process.time_constant",
+             "dead_time": "process.dead_time", "kc": "controller.kc",
+             "ti": "controller.ti", "controller_period": "controller.sample_time"}
+
+
+def _checked(m: NominalModel, where: str, names: dict[str, str]) -> NominalModel:
+    """``m`` with its numbers as floats, or the :class:`InputError` of the first rule it
+    breaks (the rules of :func:`checked_model`), naming the field by ``names``."""
+    def num(key: str, optional: bool = True, **rule: bool) -> float | None:
+        value = getattr(m, key)
+        if value is None and optional:
+            return None
+        return _num(where, names.get(key, key), value, **rule)
+
+    gain = num("gain", optional=False)
     if gain == 0:
-        raise InputError(f"{w}: gain: must not be zero")
-    _num(w, "time_constant", model.time_constant, positive=True)
-    _num(w, "dead_time", model.dead_time, nonneg=True)
-    if model.kc is not None:
-        _num(w, "kc", model.kc)
-    for key in ("ti", "sample_time", "controller_period"):
-        if getattr(model, key) is not None:
-            _num(w, key, getattr(model, key), positive=True)
-    if model.op_range is not None:
-        lo, hi = (_num(w, "op_range", v) for v in model.op_range)
+        raise InputError(f"{where}: {names.get('gain', 'gain')}: must not be zero")
+    op_range = None
+    if m.op_range is not None:
+        lo, hi = (_num(where, "op_range", v) for v in m.op_range)
         if hi <= lo:
-            raise InputError(f"{w}: op_range: hi must exceed lo, got {model.op_range!r}")
-    return model
+            raise InputError(f"{where}: op_range: hi must exceed lo, got {m.op_range!r}")
+        op_range = (lo, hi)
+    return replace(m, gain=gain,
+                   time_constant=num("time_constant", optional=False, positive=True),
+                   dead_time=num("dead_time", optional=False, nonneg=True), kc=num("kc"),
+                   ti=num("ti", positive=True), sample_time=num("sample_time", positive=True),
+                   controller_period=num("controller_period", positive=True),
+                   op_range=op_range)
 
 
 #: share of the OP moves a PI fit must explain to count as the loop's controller
