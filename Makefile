@@ -226,7 +226,7 @@ first-release: venv
 	$(BIN)/python experiments/first_release_holdout.py --today reports/concealed/holdout_pooled.csv \
 		--blocks $(FIRST_BLOCKS) --name first_release_holdout_pooled --jobs 2
 
-# the holdout family pooled over its seed blocks at the current comparison band (22 x 216
+# the holdout family pooled over its seed blocks at the current comparison band (24 x 216
 # recordings, re-run by the shipped code; block CSVs cached in .cache/holdout_blocks), the
 # NRMSE gate above its reference re-decided on the seen blocks, then the closed-loop
 # parametric bootstrap of its false alarms, the comparison band's filter

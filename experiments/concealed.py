@@ -508,6 +508,12 @@ def _pooled(df: pd.DataFrame) -> list[str]:
 def summary(df: pd.DataFrame, tuned: tuple[float, float], lofo_tab: pd.DataFrame,
             lofo_pred: pd.Series, wall: float, args: argparse.Namespace) -> str:
     p_tuned = picks(df, *tuned)
+    # the seeds the recordings were drawn with (read from them: --report-only rewrites
+    # the summary of a run made with other counts)
+    size = df.groupby(["family", "class", "level"]).size()
+    none = size.xs("none", level="class") if "none" in df["class"].values else size.iloc[:0]
+    seeds = int(size.drop("none", level="class", errors="ignore").max())
+    none_seeds = int(none.max()) if len(none) else 0
     per = table(df, lofo_pred)
     wide = per.pivot_table(index=["class", "level"], columns="family", values="named",
                            aggfunc="first").reindex(columns=list(FAMILIES)).reset_index()
@@ -523,7 +529,7 @@ def summary(df: pd.DataFrame, tuned: tuple[float, float], lofo_tab: pd.DataFrame
                              "fits of the earlier method are in `--output-error` runs)")
         + ".", "",
         f"{len(df)} recordings ({DURATION:.0f} s at 1 s, t/SP/PV/OP only, MV never written): "
-        f"{args.seeds} seeds per family × class × level, {args.none_seeds} for `none`. "
+        f"{seeds} seeds per family × class × level, {none_seeds} for `none`. "
         "Generated and diagnosed by `experiments/concealed.py` (`make concealed`); families "
         "in `experiments/concealed_families.py`. Rates carry Wilson 95 % intervals.", "",
         "## Leave-one-family-out (out of sample)", "",
@@ -531,7 +537,8 @@ def summary(df: pd.DataFrame, tuned: tuple[float, float], lofo_tab: pd.DataFrame
         f"- overall, level 1: {_named(df, lofo_pred, df.level == 1)}; "
         f"level 2: {_named(df, lofo_pred, df.level == 2)}",
         "- of 16 drawn as the concealed set is (2 of each class, `none` one of the 8; "
-        "these counts hold 3× as many `none` as of any other class): "
+        f"these counts hold {none_seeds / seeds:.3g}× as many `none` as of any other "
+        "class): "
         + "; ".join(f"level {lvl} {_of16(df, lofo_pred, df.level == lvl)}" for lvl in (1, 2)),
         f"- `none` called physics: {'; '.join(none_rates(df, lofo_pred))}", "",
         "## The package defaults (what `stictionbench diagnose` answers)", "",
@@ -602,7 +609,11 @@ def main(argv=None) -> int:
     a.out = a.out or str(ROOT / "reports" / ("concealed" + ("_model_free" if a.model_free
                                                             else "")
                                              + ("_output_error" if a.output_error else "")))
+    if a.seeds < 1 or a.none_seeds < 1 or a.jobs == 0:
+        ap.error("--seeds and --none-seeds must be at least 1, --jobs not 0")
     if a.report_only:
+        if not (Path(a.out) / "results.csv").is_file():
+            ap.error(f"--report-only: no results.csv in {a.out}; run without it first")
         df = pd.read_csv(Path(a.out) / "results.csv", keep_default_na=False,
                          na_values={c: [""] for c in ("slip_jump_p", "band_dof", "effect")})
         tuned = tune(df[df.family == TUNING_FAMILY])

@@ -30,6 +30,7 @@ closed-loop time constants.
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -286,3 +287,21 @@ def make_recording(family: str, cls: str, level: int, seed: int,
                              "own valve characteristic")
         return c, _lsim_family(c)
     return c, _simulate_family(c, controller_s, characteristic, quantise)
+
+
+def library_main(doc: str, path: str) -> None:
+    """The command line of a module of shared pieces: ``--help`` shows its docstring;
+    run without it, it says it is imported, not run (it has no experiment of its own)."""
+    import argparse
+
+    argparse.ArgumentParser(
+        description=doc, epilog="A module of shared pieces: the experiments that import it "
+        "run it.", formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
+    name = path.replace("\\", "/").rsplit("/", 1)[-1]
+    print(f"experiments/{name} is imported by the experiments, not run; see --help",
+          file=sys.stderr)
+    raise SystemExit(2)
+
+
+if __name__ == "__main__":
+    library_main(__doc__, __file__)

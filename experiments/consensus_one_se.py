@@ -49,6 +49,7 @@ Run: ``.venv/bin/python experiments/consensus_one_se.py``; writes
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -82,7 +83,9 @@ def setting_text(c: Consensus) -> str:
     return f"{'+'.join(c.methods)}, share ≥ {c.threshold:.2f}, ≥ {c.min_votes} vote(s)"
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    argparse.ArgumentParser(description=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args(argv)
     sets = {n: pd.read_csv(REAL / f"comparison_{n}.csv").set_index("loop")
             for n in ("isdb", "plant")}
     sims = {k: pd.read_csv(REAL / f) for k, f in SIMULATED.items() if (REAL / f).is_file()}

@@ -14,6 +14,7 @@ Run: ``.venv/bin/python experiments/controller_rate_artefact.py``.
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 from pathlib import Path
@@ -49,7 +50,9 @@ def one(seed: int, rate: float) -> dict:
     return row
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    argparse.ArgumentParser(description=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args(argv)
     df = pd.DataFrame([one(s, r) for s in SEEDS for r in RATES])
 
     def named(label: str) -> str:

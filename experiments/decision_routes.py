@@ -23,6 +23,7 @@ Output: ``reports/concealed/decision_routes.{md,csv}``. Seconds.
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -118,6 +119,8 @@ def report(df: pd.DataFrame, tab: pd.DataFrame) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argparse.ArgumentParser(description=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args(argv)
     df = load()
     if df is None:
         return 2

@@ -86,6 +86,7 @@ Run: ``.venv/bin/python experiments/decision_rules.py`` after ``make concealed``
 
 from __future__ import annotations
 
+import argparse
 import functools
 import json
 import sys
@@ -418,6 +419,8 @@ def read_benchmark(csv: str | tuple[str, ...]) -> pd.DataFrame | None:
 
 
 def main(argv=None) -> int:
+    argparse.ArgumentParser(description=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args(argv)
     rows, missing, verdicts = [], [], {}
     tuning = OUT / BENCHMARKS["three families"][0]
     tuning_df = pd.read_csv(tuning) if tuning.is_file() else pd.DataFrame()

@@ -329,3 +329,7 @@ def rate_line(ax, hit: pd.Series, x: pd.Series, fmt: str, label: str) -> None:
     rate = (k / n).to_numpy()
     lo, hi = np.array([wilson(int(a), int(b)) for a, b in zip(k, n, strict=True)]).T
     ax.errorbar(k.index, rate, yerr=[rate - lo, hi - rate], fmt=fmt, capsize=3, label=label)
+
+
+if __name__ == "__main__":
+    cf.library_main(__doc__, __file__)

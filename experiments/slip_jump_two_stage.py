@@ -24,6 +24,7 @@ Run: ``.venv/bin/python experiments/slip_jump_two_stage.py``; writes
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -75,7 +76,9 @@ def table(d: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    argparse.ArgumentParser(description=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args(argv)
     if not SOURCE.exists():
         print(f"slip_jump_two_stage: {SOURCE} missing (run experiments/"
               "slip_jump_bootstrap_sets.py)", file=sys.stderr)

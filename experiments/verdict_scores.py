@@ -79,3 +79,10 @@ def per_class_rates(w: pd.DataFrame, rules: tuple[str, ...]) -> pd.DataFrame:
         rows.append({"part": part, "class": cls, "level": lv,
                      **{r: rate_text(int((g[r] == cls).sum()), len(g)) for r in rules}})
     return pd.DataFrame(rows)
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(Path(__file__).parent))
+    from concealed_families import library_main
+
+    library_main(__doc__, __file__)

@@ -16,7 +16,7 @@ import warnings
 from collections.abc import Sequence
 from importlib import import_module
 
-from .errors import InputError, held_warnings
+from .errors import InputError, Terminated, held_warnings
 
 EXIT_BAD_INPUT = 2
 #: 128 + SIGPIPE, what a shell reports for a filter killed by a closed pipe
@@ -53,11 +53,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     for name in modules:
         import_module(name).add_command(sub)
     return p
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C: joblib's
-    workers are shut down and no output file is left half-written."""
 
 
 def _terminate(signum: int, frame: object) -> None:

@@ -45,3 +45,9 @@ def held_warnings() -> Iterator[list[str]]:
         yield _held
     finally:
         _held = outer
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C: joblib's
+    workers are shut down and no output file is left half-written; the command line
+    exits 143 (128 + SIGTERM), not Ctrl-C's 130."""

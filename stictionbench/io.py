@@ -13,6 +13,7 @@ import os
 import re
 import shutil
 import tempfile
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -179,7 +180,7 @@ def read_recording(path: str | os.PathLike[str], *, warn: bool = True) -> Record
         Missing path, directory, empty or binary file, missing columns, text in a
         numeric column, and every rule of :meth:`Recording.from_arrays`.
     """
-    source, cols, first_row = _read_columns(path)
+    source, cols, first_row = _read_columns(path, warn=warn)
     return Recording.from_arrays(cols["t"], cols["PV"], cols["OP"], SP=cols.get("SP"),
                                  MV=cols.get("MV"), source=source, first_row=first_row,
                                  warn=warn)
@@ -197,7 +198,7 @@ def read_stretches(path: str | os.PathLike[str], *, warn: bool = True) -> list[R
     """
     from .stretches import split_at_gaps
 
-    source, cols, first_row = _read_columns(path)
+    source, cols, first_row = _read_columns(path, warn=warn)
     return split_at_gaps(cols, source=source, first_row=first_row, warn=warn)
 
 
@@ -222,14 +223,15 @@ def read_longest_stretch(path: str | os.PathLike[str], *, warn: bool = True) -> 
     return best
 
 
-def _read_columns(path: str | os.PathLike[str]) -> tuple[str, dict[str, Any], int]:
+def _read_columns(path: str | os.PathLike[str], *, warn: bool = True
+                  ) -> tuple[str, dict[str, Any], int]:
     """``(source, columns, first row)`` of a ``.csv`` or ``.parquet`` recording file."""
     p = check_input_file(path)
     suffix = p.suffix.lower()
     if suffix == ".parquet":
-        return _read_parquet(p)
-    if suffix in (".csv", ".txt", ""):
-        return _read_csv(p)
+        return _read_parquet(p, warn=warn)
+    if suffix in CSV_SUFFIXES + ("",):
+        return _read_csv(p, warn=warn)
     raise InputError(f"{p}: unknown format {suffix!r}; use .csv or .parquet")
 
 
@@ -244,11 +246,20 @@ def csv_frame(p: Path, nrows: int | None = None, fields: int = len(REQUIRED)
     if encoding is None:
         raise InputError(f"{p}: binary data, not a CSV text file")
     sep = _delimiter(head, encoding, fields)
+    # index_col=False: a delimiter at the end of every data row (not of the header) is
+    # an empty last field, not a first column that pandas would make the index
+    kw = dict(sep=sep, dtype=str, keep_default_na=False, nrows=nrows,
+              skipinitialspace=True, index_col=False)
     try:
-        frame = pd.read_csv(p, sep=sep, dtype=str, keep_default_na=False, nrows=nrows,
-                            skipinitialspace=True, encoding=encoding)
+        try:
+            frame = _read_fields(p, encoding, kw)
+        except UnicodeError:
+            if encoding.startswith("utf-16"):
+                raise
+            # not UTF-8: a Windows spreadsheet's export ("PV (°C)" in code page 1252)
+            frame = _read_fields(p, "cp1252", kw)
     except UnicodeError:
-        what = "UTF-16" if encoding.startswith("utf-16") else "UTF-8"
+        what = "UTF-16" if encoding.startswith("utf-16") else "UTF-8 or Windows-1252"
         raise InputError(f"{p}: not {what} text, not a CSV file") from None
     except pd.errors.EmptyDataError:
         raise InputError(f"{p}: empty file") from None
@@ -262,17 +273,122 @@ def csv_frame(p: Path, nrows: int | None = None, fields: int = len(REQUIRED)
         base, dot, num = c.rpartition(".")
         if dot and num.isdigit() and base in names:
             raise InputError(f"{p}: column {base!r} appears more than once in the header")
+    # rows with every cell empty at the end: what a spreadsheet writes below its data
+    filled = (frame.apply(lambda c: c.str.strip()) != "").any(axis=1).to_numpy()
+    last = len(filled) - int(np.argmax(filled[::-1])) if filled.any() else 0
+    if last < len(frame):
+        frame = frame.iloc[:last]
     return frame, sep
 
 
-def _read_csv(p: Path) -> tuple[str, dict[str, Any], int]:
+def _read_fields(p: Path, encoding: str, kw: dict[str, Any]) -> pd.DataFrame:
+    """``pandas.read_csv`` of a CSV whose data rows may end in delimiters the header does
+    not: the empty fields after the named ones are dropped; a value there is refused
+    (which column would it be?)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", pd.errors.ParserWarning)
+        try:
+            return pd.read_csv(p, encoding=encoding, **kw)
+        except pd.errors.ParserWarning:
+            pass
+    names = pd.read_csv(p, encoding=encoding, **{**kw, "nrows": 0}).columns
+    raw = pd.read_csv(p, encoding=encoding, header=None, skiprows=1,
+                      **{k: v for k, v in kw.items() if k != "index_col"})
+    extra = raw.iloc[:, len(names):]
+    if (extra.apply(lambda c: c.str.strip()) != "").to_numpy().any():
+        raise InputError(f"{p}: data rows have more fields than the header has names; "
+                         f"name every column")
+    frame = raw.iloc[:, :len(names)]
+    frame.columns = names
+    return frame
+
+
+def _read_csv(p: Path, *, warn: bool = True) -> tuple[str, dict[str, Any], int]:
     frame, sep = csv_frame(p)
-    if sep != ",":
-        # a CSV written with ';' or a tab is usually one with a decimal comma (the
-        # spreadsheet export of a European locale): "1,5" is read as 1.5
-        frame = frame.apply(lambda c: c.str.replace(r"^(\s*[-+]?\d*),(\d+\s*)$", r"\1.\2",
-                                                    regex=True))
-    return str(p), _frame_columns(frame, str(p), first_row=2, text=True), 2
+    frame = _canonical_columns(frame, str(p))
+    frame = numbers_as_written(frame, sep, [c for c in COLUMNS if c in frame.columns],
+                               str(p))
+    return str(p), _frame_columns(frame, str(p), first_row=2, text=True, warn=warn), 2
+
+
+#: a number written with a thousands separator ``,`` or ``.`` (``1,003``, ``12.500,5``)
+_GROUPED = {k: re.compile(rf"[-+]?[1-9]\d{{0,2}}(\{k}\d{{3}})+(\{d}\d+)?")
+            for k, d in ((",", "."), (".", ","))}
+#: a number with a decimal mark ``.`` or ``,`` (and an exponent)
+_DECIMAL = {m: re.compile(rf"[-+]?\d*\{m}\d+([eE][-+]?\d+)?") for m in ".,"}
+
+
+def _jumps(values: np.ndarray) -> int:
+    """How many neighbouring samples differ by a factor of more than 100 (a number read
+    with the wrong decimal mark is a thousand times too large or too small)."""
+    a = np.abs(values[np.isfinite(values) & (values != 0)])
+    return int((np.abs(np.diff(np.log10(a))) > 2).sum()) if a.size > 1 else 0
+
+
+def numbers_as_written(frame: pd.DataFrame, sep: str, columns: list[str], source: str
+                       ) -> pd.DataFrame:
+    """Text cells of ``columns`` with their decimal mark made ``.`` and thousands
+    separators removed, the marks read from the file itself.
+
+    A cell such as ``40.25`` or ``0,998`` shows the file's decimal mark (the other mark
+    is then a thousands separator: ``1,234.5``, ``1.234,5``); a file showing both is
+    refused. When no cell shows it (``1,003`` beside ``999``: 1.003 or 1003?) each
+    column takes the reading whose neighbouring samples do not jump by a factor of a
+    thousand, and on a tie the locale's: a decimal comma in a ``;`` or tab separated
+    file (a European spreadsheet's export), a point in a ``,`` separated one. A file
+    without a comma is read as written.
+
+    Raises
+    ------
+    InputError
+        Both marks used as decimal marks in one file.
+
+    Examples
+    --------
+    >>> f = pd.DataFrame({"PV": ["999", "1,003", "1,001"], "OP": ["40.5", "41", "40"]})
+    >>> numbers_as_written(f, "\t", ["PV", "OP"], "x")["PV"].tolist()
+    ['999', '1003', '1001']
+    >>> f = pd.DataFrame({"PV": ["1.006", "5,5"], "OP": ["40", "41,25"]})
+    >>> numbers_as_written(f, ";", ["PV", "OP"], "x")["PV"].tolist()
+    ['1006', '5.5']
+    """
+    cells = {c: frame[c].astype(str).str.strip() for c in columns}
+    if not any("," in "".join(s.tolist()) for s in cells.values()):
+        return frame  # no comma: numbers as pandas reads them, a point the decimal mark
+
+    def shown(mark: str) -> str | None:
+        other = "," if mark == "." else "."
+        for s in cells.values():
+            hit = (s.str.fullmatch(_DECIMAL[mark]) & ~s.str.fullmatch(_GROUPED[mark])) | \
+                s.str.fullmatch(_GROUPED[other]) & s.str.contains(mark, regex=False)
+            if hit.any():
+                return str(s[hit].iloc[0])
+        return None
+
+    point, comma = shown("."), shown(",")
+    if point is not None and comma is not None:
+        raise InputError(f"{source}: numbers written with a decimal point ({point!r}) and "
+                         f"with a decimal comma ({comma!r}); export the file with one")
+    default = "," if sep != "," else "."
+    out = frame.copy()
+    for c, s in cells.items():
+        readings = {}
+        for mark in ".,":
+            if (point is not None and mark != ".") or (comma is not None and mark != ","):
+                continue
+            group = "," if mark == "." else "."
+            text = s.where(~s.str.fullmatch(_GROUPED[group]),
+                           s.str.replace(group, "", regex=False))
+            readings[mark] = text.str.replace(",", ".", regex=False) if mark == "," \
+                else text
+        if len(readings) == 1 or readings[","].equals(readings["."]):
+            out[c] = next(iter(readings.values())) if len(readings) == 1 else readings[","]
+            continue
+        jumps = {m: _jumps(pd.to_numeric(r, errors="coerce").to_numpy(dtype=float))
+                 for m, r in readings.items()}
+        other = "." if default == "," else ","
+        out[c] = readings[other if jumps[other] < jumps[default] else default]
+    return out
 
 
 def csv_columns(path: str | os.PathLike[str]) -> list[str] | None:
@@ -293,7 +409,14 @@ HISTORIAN_STATES = frozenset({
     "bad", "bad input", "bad data", "bad quality", "bad value", "i/o timeout",
     "comm fail", "calc failed", "calc timeout", "no data", "no sample", "not connected",
     "scan off", "scan timeout", "shutdown", "pt created", "over range", "under range",
-    "out of service", "invalid data", "#n/a", "n/a"})
+    "out of service", "invalid data", "#n/a", "n/a", "intf shut", "arc off-line",
+    "configure", "no good data for calculation", "null", "none", "nan"})
+#: a PI error code before its text, ``[-11059] No Good Data For Calculation``
+_ERROR_CODE = r"^\[-?\d+\]"
+
+#: the suffixes of CSV text files (compared without case; a historian's export is often
+#: ``.txt``, a Windows one ``.CSV``)
+CSV_SUFFIXES = (".csv", ".txt", ".tsv")
 
 #: column delimiters recognised in a CSV's header line, in order of preference
 DELIMITERS = (",", ";", "\t", "|")
@@ -347,10 +470,15 @@ def _delimiter(head: bytes, encoding: str = "utf-8", fields: int = len(REQUIRED)
 #: other names of the time column (compared without case)
 TIME_ALIASES = ("time", "timestamp", "datetime", "date_time", "time_s", "t_s")
 #: other names of the signals (compared without case): CO, the controller output, is the
-#: paper's own name for OP
-SIGNAL_ALIASES = {"co": "OP"}
+#: paper's own name for OP; SV (set value) is Yokogawa's name for the set point
+SIGNAL_ALIASES = {"co": "OP", "setpoint": "SP", "set point": "SP", "set_point": "SP",
+                  "set-point": "SP", "sv": "SP"}
 #: a unit after a column's name, ``PV (degC)``, ``OP [%]``: not part of the name
 _UNIT = re.compile(r"\s*(\([^()]*\)|\[[^\[\]]*\])\s*$")
+#: a historian tag before a signal's name: ``FIC101.PV``, ``FIC101:SP``, ``FIC101 OP``
+_TAGGED = re.compile(r"^(?P<tag>.+?)[.:/_ ](?P<signal>[^.:/_ ]+)$")
+#: a column that looks like a set point (named in a warning when no column is read as SP)
+_SP_LIKE = re.compile(r"(^|[^a-z])(sp|sv|spt|set.?point|set.?value|target)([^a-z]|$)")
 
 
 def _column_key(name: str) -> str:
@@ -363,7 +491,18 @@ def _canonical_columns(frame: pd.DataFrame, source: str) -> pd.DataFrame:
     after it (``PV (degC)``, ``OP [%]``), or an alias (:data:`TIME_ALIASES`,
     :data:`SIGNAL_ALIASES`) to the canonical ``t, SP, PV, OP, MV``; a name matched by two
     columns (``PV`` and ``pv``, ``t`` and ``time``) is an error, an exact name is never
-    renamed."""
+    renamed. A signal no column names so is looked for after a historian tag
+    (``FIC101.PV``, ``FIC101:SP``), the tag the same for every signal so found: a file of
+    two loops' tags is refused.
+
+    Examples
+    --------
+    >>> f = pd.DataFrame(columns=["Time", "FIC101.PV", "FIC101.OP", "FIC101.SP [m3/h]"])
+    >>> list(_canonical_columns(f, "x").columns)
+    ['t', 'PV', 'OP', 'SP']
+    >>> list(_canonical_columns(pd.DataFrame(columns=["t", "PV", "OP", "SV"]), "x").columns)
+    ['t', 'PV', 'OP', 'SP']
+    """
     names = [str(c) for c in frame.columns]
     wanted = {c.lower(): c for c in COLUMNS}
     wanted.update({a: "t" for a in TIME_ALIASES})
@@ -378,20 +517,46 @@ def _canonical_columns(frame: pd.DataFrame, source: str) -> pd.DataFrame:
                              f"rename one")
         if hits:
             rename[hits[0]] = canon
+    found = set(rename.values()) | {c for c in names if c in COLUMNS}
+    tagged: dict[str, list[tuple[str, str]]] = {}
+    for c in names:
+        m = _TAGGED.match(_column_key(c))
+        canon = wanted.get(m["signal"]) if m and c not in rename else None
+        if canon and canon != "t" and canon not in found:
+            tagged.setdefault(canon, []).append((c, m["tag"]))
+    tags = {tag for hits in tagged.values() for _, tag in hits}
+    for canon, hits in tagged.items():
+        if len(hits) > 1 or len(tags) > 1:
+            shown = ", ".join(c for hs in tagged.values() for c, _ in hs)
+            raise InputError(f"{source}: columns {shown} are the signals of more than one "
+                             f"loop; give one loop per file, its columns named t, PV, OP, SP")
+        rename[hits[0][0]] = canon
     return frame.rename(columns=rename) if rename else frame
 
 
-def _read_parquet(p: Path) -> tuple[str, dict[str, Any], int]:
+def _unread_setpoint(columns: list[str]) -> str | None:
+    """A column that looks like a set point, when none is read as SP."""
+    if "SP" in columns:
+        return None
+    return next((c for c in columns if c not in COLUMNS
+                 and _SP_LIKE.search(_column_key(c))), None)
+
+
+def _read_parquet(p: Path, *, warn: bool = True) -> tuple[str, dict[str, Any], int]:
     try:
         frame = pd.read_parquet(p)
     except Exception as exc:  # pyarrow raises several types for corrupt files
         raise InputError(f"{p}: not a readable Parquet file ({type(exc).__name__})") from None
-    return str(p), _frame_columns(frame, str(p), first_row=0, text=False), 0
+    return str(p), _frame_columns(frame, str(p), first_row=0, text=False, warn=warn), 0
 
 
-def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bool
-                   ) -> dict[str, Any]:
+def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bool,
+                   warn: bool = True) -> dict[str, Any]:
     frame = _canonical_columns(frame, source)
+    unread = _unread_setpoint([str(c) for c in frame.columns])
+    if unread is not None and warn:
+        user_warning(f"{source}: column {unread!r} is not read as the set point; name it "
+                     f"SP to use it")
     missing = [c for c in REQUIRED if c not in frame.columns]
     if missing:
         raise InputError(
@@ -405,8 +570,8 @@ def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bo
         col = frame[name]
         if text:
             s = col.astype(str).str.strip()
-            empty = s.isin(["", "nan", "NaN", "NA", "null", "None"]) | \
-                s.str.lower().isin(HISTORIAN_STATES)
+            empty = s.isin(["", "NA"]) | s.str.lower().isin(HISTORIAN_STATES) | \
+                s.str.contains(_ERROR_CODE, regex=True)
             num = pd.to_numeric(s.where(~empty, None), errors="coerce")
             bad = num.isna() & ~empty
             # date-times, unless most cells are numbers (then the rest are bad cells: a

@@ -12,14 +12,16 @@ unknown and the valve characteristic is not tested (the diagnosis says so).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 #: OP in per cent of the valve's travel; in a fraction of it
 PERCENT = (0.0, 100.0)
 FRACTION = (0.0, 1.0)
 #: an output may over- or under-shoot its range by this share of the span (many control
-#: systems allow −5 … 105 %)
-OVERSHOOT = 0.05
+#: systems allow −5 … 105 %; Honeywell's controllers −6.9 … 106.9 % by default)
+OVERSHOOT = 0.069
 #: the median of a recognised OP lies above this share of the span (a mean-removed OP
 #: has its median near 0)
 MIN_MEDIAN = 0.01
@@ -34,8 +36,8 @@ def _within(op: np.ndarray, span: tuple[float, float]) -> bool:
 def infer_op_range(op: np.ndarray) -> tuple[float, float] | None:
     """Recognise OP's units from its values.
 
-    Per cent when every sample lies in −5 … 105 and some exceed 1.05 (so it is not a
-    fraction); a fraction when every sample lies in −0.05 … 1.05. In both cases the
+    Per cent when every sample lies in −6.9 … 106.9 and some exceed 1.069 (so it is not a
+    fraction); a fraction when every sample lies in −0.069 … 1.069. In both cases the
     median must exceed 1 % of the span (a mean-removed OP has its median near 0), unless
     OP never falls below the range's bottom and rises above that 1 % (a valve shut for
     most of the record, which a signal centred on 0 cannot be).
@@ -107,3 +109,42 @@ def check_op_range(op: np.ndarray, span: tuple[float, float], what: str) -> None
                          f"the range {span[0]:g} to {span[1]:g} given (by more than "
                          f"{OVERSHOOT * 100:g} % of it); give OP's 0 and 100 % in OP's "
                          "own units")
+
+
+def given_range(lo: float, hi: float, what: str) -> tuple[float, float]:
+    """``(lo, hi)`` as OP's 0 and 100 % given by the user, refused unless finite with
+    ``hi > lo`` (the message names ``what``, the option that gave them).
+
+    Examples
+    --------
+    >>> given_range(4, 20, "--op-range")
+    (4.0, 20.0)
+    """
+    from .errors import InputError
+
+    lo, hi = float(lo), float(hi)
+    if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+        raise InputError(f"{what}: expected LO HI with HI > LO, got {lo:g} {hi:g}")
+    return lo, hi
+
+
+def op_range_of(rec: Any, op: np.ndarray | None = None) -> tuple[float, float] | None:
+    """OP's range for a recording: the one the user gave (``rec.meta["op_range"]``: the
+    ``--op-range`` of ``batch`` and ``estimate``), else :func:`infer_op_range` of ``op``
+    (the recording's OP when None).
+
+    Examples
+    --------
+    >>> import dataclasses
+    >>> from stictionbench.recording import Recording
+    >>> t = np.arange(200.0)
+    >>> rec = Recording.from_arrays(t, np.sin(t), 12 + np.sin(t / 9))
+    >>> ma = dataclasses.replace(rec, meta={"op_range": (4, 20)})  # OP in milliamps
+    >>> op_range_of(rec), op_range_of(ma)
+    ((0.0, 100.0), (4.0, 20.0))
+    """
+    given = rec.meta.get("op_range")
+    if given is not None:
+        lo, hi = given
+        return float(lo), float(hi)
+    return infer_op_range(rec.OP if op is None else op)

@@ -21,6 +21,9 @@ SIGNALS = ("SP", "PV", "OP", "MV")
 REQUIRED = ("t", "PV", "OP")
 MIN_SAMPLES = 100
 MAX_INTERPOLATED_GAP = 5
+#: a historian's hold (a value repeated, or written only when it changed) is bridged up
+#: to this share of the record; a longer one is no compression artefact to undo
+HOLD_SHARE = 0.02
 
 #: rows absent from a file (whole sampling intervals missing) are put on the uniform grid
 #: as missing samples up to this many times the file's rows (an outage of weeks in a record

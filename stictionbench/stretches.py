@@ -22,6 +22,7 @@ import numpy as np
 
 from .errors import user_warning
 from .recording import (
+    HOLD_SHARE,
     MAX_GRID_GROWTH,
     MAX_INTERPOLATED_GAP,
     MIN_SAMPLES,
@@ -70,6 +71,9 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
     """
     cols, grid_rows = missing_rows_as_gaps(cols, source=source, first_row=first_row,
                                            warn=warn)
+    cols, note = hold_on_change(cols)
+    if note and warn:
+        user_warning(f"{source}: {note}")
     if cols.get("SP") is not None:
         # a set point logged only when it changes is held, not cut at (its blank cells
         # are no gap in a measurement); the note is the strict reader's, given once here
@@ -99,6 +103,65 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
             meta=md, source=f"{source} (rows {rows[0]}–{rows[1]})", first_row=rows[0],
             warn=warn))
     return out
+
+
+#: a signal missing in at least this many separate places is one written only when it
+#: changed (a historian's "recorded values" export: rows absent, or a merged table's blank
+#: cells, between changes), not one with that many outages
+ON_CHANGE_GAPS = 10
+
+
+def hold_on_change(cols: Mapping[str, np.ndarray | None]
+                   ) -> tuple[dict[str, np.ndarray | None], str | None]:
+    """``cols`` with each measured signal (``PV, OP, MV``) that is missing in at least
+    :data:`ON_CHANGE_GAPS` separate places held at its last value over its gaps, and a
+    note naming them (``None`` when none is).
+
+    A historian that writes a value only when it changes (exception reporting, box-car
+    compression) leaves rows or cells out between the changes; their value is the last
+    one written. Held so, the record is the one the same historian exports with every
+    row written (its held samples; :func:`~stictionbench.realdata.quality.release_holds`
+    then treats both alike), for gaps up to :data:`~.recording.HOLD_SHARE` of the record
+    (the longest hold that is bridged there); a longer gap, and every gap of a signal
+    missing in fewer places, is an outage and stays a gap (interpolated when short, cut
+    at when long). Missing values before a signal's first value stay missing.
+
+    Examples
+    --------
+    >>> pv = np.arange(40.0); pv[1::3] = np.nan
+    >>> held, note = hold_on_change({"t": np.arange(40.0), "PV": pv, "OP": np.ones(40)})
+    >>> held["PV"][:6].tolist()
+    [0.0, 0.0, 2.0, 3.0, 3.0, 5.0]
+    >>> note
+    'PV held over 13 missing samples in 13 places (written only when it changed?)'
+    """
+    out = dict(cols)
+    notes = []
+    for name in ("PV", "OP", "MV"):
+        v = cols.get(name)
+        if v is None:
+            continue
+        v = np.asarray(v, float)
+        blank = np.isnan(v)
+        if not blank.any() or blank.all():
+            continue
+        first = int(np.argmax(~blank))
+        runs = [r for r in true_runs(blank) if r[0] > first]
+        if len(runs) < ON_CHANGE_GAPS:
+            continue
+        limit = max(MAX_INTERPOLATED_GAP, int(HOLD_SHARE * v.size))
+        short = np.zeros(v.size, bool)
+        for a, b in runs:
+            if b - a <= limit:
+                short[a:b] = True
+        last = np.maximum.accumulate(np.where(blank, 0, np.arange(v.size)))
+        out[name] = np.where(short, v[last], v)
+        n = int(short.sum())
+        notes.append(f"{name} held over {n} missing samples in {len(runs)} places")
+        if n < blank[first:].sum():
+            notes[-1] += (f" (longer gaps than {limit} samples, {HOLD_SHARE:.0%} of the "
+                          "record, stay gaps)")
+    return out, ("; ".join(notes) + " (written only when it changed?)") if notes else None
 
 
 def missing_rows_as_gaps(cols: Mapping[str, np.ndarray | None], *, source: str,

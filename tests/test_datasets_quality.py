@@ -8,6 +8,7 @@ files written with ``scipy.io.savemat``.
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pandas as pd
@@ -363,6 +364,9 @@ def test_cli_screen_and_benchmark(tmp_path, capsys):
     assert main(["screen", str(tmp_path), "--json", str(js)]) == 0
     out = capsys.readouterr().out
     assert "dead" in out and "UNUSABLE" in out and "skipped" in out
+    # the graded score is on the console too, not only in the JSON
+    good = next(line for line in out.splitlines() if line.startswith("good "))
+    assert re.search(r"usable\s+(good|fair|poor) \d\.\d\d", good), good
     payload = json.loads(js.read_text())
     by = {r["name"]: r for r in payload["recordings"]}
     assert not by["dead"]["usable"] and by["good"]["usable"]

@@ -110,3 +110,27 @@ def test_the_gate_without_a_model_is_refused(tmp_path, sticky, capsys):
     # without a model and without the flag the gate does not apply (and is not refused)
     assert main(["diagnose", str(csv), "--json", str(out)]) == 0
     assert json.loads(out.read_text())["details"]["linear_input_gate"] is False
+
+
+def test_flags_that_need_the_other_mode_are_refused(tmp_path, sticky, capsys):
+    """--intersample / --no-intersample reconstruct a given model's controller and
+    --detection is the no-model route: given in the other mode they did nothing and said
+    nothing (a newcomer pass); now one line and exit 2, before any output."""
+    from stictionbench.cli import main
+    from stictionbench.io import write_recording
+
+    csv = tmp_path / "r.csv"
+    write_recording(sticky, csv)
+    model = tmp_path / "m.yaml"
+    model.write_text("process: {gain: 3.0, time_constant: 10.0, dead_time: 10.0}\n"
+                     "controller: {kc: 0.2, ti: 10.0}\n")
+    out = tmp_path / "d.json"
+    cases = [([flag], f"{flag} needs --model") for flag in ("--intersample",
+                                                           "--no-intersample")]
+    cases.append((["--model", str(model), "--detection"], "--detection is for a recording "
+                                                          "without --model"))
+    for args, message in cases:
+        assert main(["diagnose", str(csv), "--json", str(out), *args]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and message in err[0], err
+        assert not out.exists()

@@ -50,3 +50,15 @@ def test_plugin_estimator_via_cli(plugin_path, tmp_path):
     r2 = subprocess.run([sys.executable, "-m", "stictionbench.cli", "estimate", str(path),
                          "--method", "peak_lag"], capture_output=True, text=True)
     assert r2.returncode == 2 and "unknown estimator 'peak_lag'" in r2.stderr
+
+
+def test_every_builtin_estimator_is_an_entry_point():
+    """The README says every estimator is registered in the entry-point group; the
+    built-in table and pyproject.toml's group must name the same classes."""
+    import tomllib
+    from pathlib import Path
+
+    from stictionbench.estimators.registry import BUILTIN, GROUP
+
+    meta = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    assert meta["project"]["entry-points"][GROUP] == BUILTIN

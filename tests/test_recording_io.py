@@ -331,7 +331,7 @@ def test_utf16_spreadsheet_export_read_as_the_utf8_one(tmp_path, encoding):
 
 
 @pytest.mark.parametrize("header, clash, message", [
-    ("Time,sp,pv,Op", "t,pv,Pv,OP", "pv, Pv could each be PV"),
+    ("Time,sp,pv,Op", "t,pv,Pv,OP,x", "pv, Pv could each be PV"),
     # historian exports put the unit after the name; CO (controller output) is the
     # paper's name for OP; a unit never makes two columns one signal
     ("t [s],SP (degC),PV (degC),CO [%]", "t,SP,PV,OP (%),CO", "OP (%), CO could each be OP"),

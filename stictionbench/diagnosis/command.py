@@ -11,7 +11,7 @@ from ..errors import InputError, user_warning
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..io import write_text
-    from ..op_range import check_op_range
+    from ..op_range import check_op_range, given_range
     from ..realdata.datasets import read_one, source_keys
     from ..validation import check_writable, refuse_overwrite
     from .diagnose import RESOLUTION_FLOOR, WARNING_KEYS, diagnose
@@ -30,10 +30,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                      "the model is continuous-time and is used as given")
     op_range = None
     if args.op_range:
-        lo, hi = args.op_range
-        if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-            raise InputError(f"--op-range: expected LO HI with HI > LO, got {lo:g} {hi:g}")
-        op_range = (lo, hi)
+        op_range = given_range(*args.op_range, "--op-range")
         check_op_range(rec.OP, op_range, "--op-range")
     elif model is not None and model.op_range is not None:
         check_op_range(rec.OP, model.op_range, f"{args.model}: op_range")
@@ -43,6 +40,13 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.test_highpass_order != 2 and model is None:
         raise InputError("--test-highpass-order needs --model: without one the "
                          "comparison keeps its zero-phase band")
+    if args.intersample is not None and model is None:
+        flag = "--intersample" if args.intersample else "--no-intersample"
+        raise InputError(f"{flag} needs --model: it reconstructs the OP of a given model's "
+                         "controller between samples")
+    if args.detection and model is not None:
+        raise InputError("--detection is for a recording without --model: with a model "
+                         "the diagnosis tests the valve against it")
     if args.line_test and model is None:
         raise InputError("--line-test needs --model: it tests the residual of a given "
                          "model for a line")
@@ -57,7 +61,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                  linear_input_gate=args.linear_input_gate is not False,
                  test_highpass_order=args.test_highpass_order,
                  test_noise_family=args.test_noise_family, line_test=args.line_test,
-                 intersample=args.intersample, resolution_floor=floor,
+                 intersample=args.intersample is not False, resolution_floor=floor,
                  detection=args.detection, pairing_check=args.pairing_check)
     payload = d.to_json()
     payload.update(source_keys(args.recording, rec))
@@ -162,7 +166,7 @@ def add_command(sub) -> None:
                         "the oscillatory disturbance's fit and, at the fitted period, "
                         "replaces its 10%% NRMSE gate by any improvement (off by default; "
                         "reports/concealed/harmonic_line.md)")
-    p.add_argument("--intersample", action=argparse.BooleanOptionalAction, default=True,
+    p.add_argument("--intersample", action=argparse.BooleanOptionalAction, default=None,
                    help="with a model whose controller.sample_time is faster than the "
                         "recording, replay the PI's mean output between samples, "
                         "reconstructed from its law, in place of the recorded OP "

@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..op_range import infer_op_range
+from ..op_range import op_range_of
 from ..recording import Recording
 from .blocks import N_BLOCKS, split_blocks
 from .cycle import CycleCheck, check_cycle
@@ -279,7 +279,7 @@ def compare(rec: Recording, model: NominalModel | None = None, *,
     t = np.asarray(rec.t, float) - float(rec.t[0])
     ctx = Context(t, np.asarray(rec.OP, float), np.asarray(rec.PV, float),
                   Ts, tau, theta, f_hp, f_lp=f_lp, model_given=model.source == "given",
-                  op_range=op_range or model.op_range or infer_op_range(rec.OP),
+                  op_range=op_range or model.op_range or op_range_of(rec),
                   block_times=tuple(float(t[min(e, n - 1)]) for e in split.knot_edges),
                   alignment=float(alignment))
     prob = Problem(ctx, f_hp, split.train, split.val, f_lp)
@@ -1145,7 +1145,7 @@ def closed_loop_replay(rec: Recording, m: NominalModel) -> dict[str, Any] | None
     no disturbance); return NRMSE of PV and OP against the recording."""
     if rec.SP is None or m.kc is None or m.ti is None:
         return None
-    lo, hi = m.op_range or infer_op_range(rec.OP) or (-np.inf, np.inf)
+    lo, hi = m.op_range or op_range_of(rec) or (-np.inf, np.inf)
     n = len(rec)
     Ts = rec.Ts
     a = math.exp(-Ts / m.time_constant)

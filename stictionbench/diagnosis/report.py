@@ -78,7 +78,7 @@ def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
         ax.axhline(sp["floor"], color="k", ls=":", label="white-noise floor")
         if d.mismatch_band_hz:
             ax.axvspan(*d.mismatch_band_hz, color="orange", alpha=0.2, label="mismatch band")
-    ax.set(xlabel="frequency (Hz)", ylabel="PSD", title="Where in frequency")
+    ax.set(xlabel="frequency (Hz)", ylabel="PSD (PV units² per Hz)", title="Where in frequency")
     ax.legend()
     paths.append(save_png(fig, out / "spectrum.png"))
     # 4. phase plots: PV–OP and the estimated MV–OP

@@ -89,13 +89,18 @@ def build_estimator(method: str | None, params: Sequence[str] | None,
 def cmd_estimate(args: argparse.Namespace) -> int:
     """Run ``estimate``: print a table, optionally write the result as JSON."""
     from ..io import write_text
-    from ..realdata.datasets import read_one, source_keys
+    from ..op_range import check_op_range, given_range
+    from ..realdata.datasets import read_one, source_keys, with_meta
     from ..validation import check_writable, refuse_overwrite
 
     refuse_overwrite([args.json], [args.recording])
     check_writable([args.json])
     est = build_estimator(args.method, args.param, args.overrides)
     rec = read_one(args.recording, loop=args.loop)
+    if args.op_range is not None:
+        span = given_range(*args.op_range, "--op-range")
+        check_op_range(rec.OP, span, "--op-range")
+        rec = with_meta(rec, {"op_range": span})
     rec.signal(args.x or est.default_x)              # an unknown name is said before MV's absence
     yname = args.y or est.default_y
     pv_for_mv = getattr(est, "flow_loop", False) and args.y is None  # PV stands in
@@ -144,4 +149,8 @@ def add_command(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--param", action="append", metavar="KEY=VALUE",
                    help="an estimator parameter (repeat for several): --param max_delay=50")
     e.add_argument("--json", metavar="OUT", help="write the result as JSON")
+    e.add_argument("--op-range", nargs=2, type=float, metavar=("LO", "HI"),
+                   help="OP's 0 and 100 %% in its own units (4 20 for milliamps), for the "
+                        "detectors' 'OP moved by 1 %%' (default: per cent or a fraction "
+                        "recognised from OP, else 1 %% read as 1 unit)")
     e.set_defaults(func=cmd_estimate)

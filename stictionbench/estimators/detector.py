@@ -19,7 +19,7 @@ from scipy import signal as sps
 from scipy.linalg import lstsq, toeplitz
 
 from ..errors import InputError
-from ..op_range import infer_op_range
+from ..op_range import infer_op_range, op_range_of
 from ..recording import Recording
 from ..validation import check_signal
 from .base import EstimateResult, Estimator
@@ -476,14 +476,25 @@ class StictionDetector(Estimator):
         return None, None
 
     @staticmethod
-    def op_percent(op: np.ndarray) -> float:
+    def op_percent(op: np.ndarray, rec: Recording | None = None) -> float:
         """One per cent of OP's span in OP's units: 0.01 for an OP recognised as a
         fraction of the valve's travel (:func:`~stictionbench.op_range.infer_op_range`),
-        else 1 (per cent, or units that cannot be recognised: mean-removed, milliamps).
+        else 1 (per cent, or units that cannot be recognised: mean-removed, milliamps);
+        the range the user gave (``rec.meta["op_range"]``) first.
         The tolerances "OP moved by 1 %" are physical (a good valve's resolution) and
         must not turn an OP in 0–1 into an "OP constant" verdict."""
-        span = infer_op_range(op)
+        span = infer_op_range(op) if rec is None else op_range_of(rec, op)
         return 1.0 if span is None else (span[1] - span[0]) / 100.0
+
+    @staticmethod
+    def op_constant(op: np.ndarray, rec: Recording | None = None) -> str:
+        """The reason "OP constant"; where OP's units are not recognised (milliamps,
+        engineering units, mean-removed) it says that 1 % was read as one of OP's own
+        units (:meth:`op_percent`), which the user can correct by giving OP in per cent."""
+        if (infer_op_range(op) if rec is None else op_range_of(rec, op)) is None:
+            return ("OP constant (OP's units not recognised as per cent or a fraction: "
+                    "1 unit read as 1 %)")
+        return "OP constant"
 
     def _error_half_cycles(self, x: np.ndarray, y: np.ndarray | None, rec: Recording,
                            measure: Callable[..., np.ndarray]

@@ -181,12 +181,12 @@ class Kano(StictionDetector):
         if y is None:
             return self._result(nan, None, "MV not recorded", valve=None, **rule)
         finite_pair(self.name, x, y)
-        pct = self.op_percent(x)
+        pct = self.op_percent(x, rec)
         # OP "moved" beyond a good valve's resolution and beyond its own noise (a PI
         # passes PV's noise to OP: that jitter is not a move the valve should follow)
         op_tol = max(self.op_tolerance * pct, self.noise_factor * difference_noise(x))
         if np.ptp(x) <= op_tol:
-            return self._result(nan, None, "OP constant", valve=valve, **rule)
+            return self._result(nan, None, self.op_constant(x, rec), valve=valve, **rule)
         floor = self.noise_factor * difference_noise(y)
         band = floor if valve == "PV" else max(self.mv_tolerance * pct, floor)
         sections, sticky = sticky_sections(x, y, band, op_tol)

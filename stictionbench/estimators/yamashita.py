@@ -214,8 +214,8 @@ class Yamashita(StictionDetector):
         if y is None:
             return self._result(nan, None, "not a flow loop", valve=None, **rule)
         finite_pair(self.name, x, y)
-        if np.ptp(x) <= self.op_tolerance * self.op_percent(x):
-            return self._result(nan, None, "OP constant", valve=valve, **rule)
+        if np.ptp(x) <= self.op_tolerance * self.op_percent(x, rec):
+            return self._result(nan, None, self.op_constant(x, rec), valve=valve, **rule)
         measured = measured_samples(rec.meta, x.size)
         times = pattern_times(x, y, self.tolerance, measured)
         moving = sum(times.values()) - times["SS"]

@@ -214,11 +214,16 @@ def xcorr_section(st: Study) -> list[str]:
 def choices_section(st: Study) -> list[str]:
     lines = ["## 3. Unstated choices move the headline", "",
              "All from the Hydra sweeps `conf/sweep/paper_*.yaml` (`make sweep-paper`; "
-             "results in `reports/sweeps/paper_*/`). Rates are 'stiction' calls with the "
-             "0.5-sample threshold and Wilson 95 % intervals.", "",
+             "results in `reports/sweeps/paper_*/`). Rates count the estimates beyond "
+             "the 0.5-sample threshold, whether or not the estimator flags them unreliable "
+             "(section 1: `xcum` makes no call on most stiction estimates), with Wilson "
+             "95 % intervals.", "",
              "![windows](figures/sensitivity_windows.png)", ""]
     if st.windows is not None:
         w = st.windows[st.windows.load == st.windows.load.max()]
+        lines.append(f"At the sweep's largest load ({w.load.max():g}; every load is in "
+                     "[the table](tables/sensitivity_windows.md)):")
+        lines.append("")
         for case in CASES:
             g = w[(w.case == case) & (w.knob == "max_delay")]
             lines.append(f"- {case}: " + "; ".join(

@@ -16,7 +16,8 @@ from ..errors import InputError, user_warning
 
 
 def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
-              diagnose: str = "none", consensus: str | None = None
+              diagnose: str = "none", consensus: str | None = None,
+              op_range: tuple[float, float] | None = None
               ) -> tuple[list[dict], list, dict]:
     """Judge every recording of ``directory``; returns entries, skipped files, scores.
 
@@ -28,9 +29,10 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
     from joblib import Parallel, delayed
     from tqdm import tqdm
 
+    from ..op_range import check_op_range
     from .compare import balanced_accuracy, loop_verdicts
     from .consensus import Consensus, fit, lolo
-    from .datasets import load_csv_dir
+    from .datasets import load_csv_dir, with_meta
     from .panel import METHODS, PUBLISHED
     from .verdict import judge
 
@@ -38,6 +40,10 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
     if not d.is_dir():
         raise InputError(f"{d}: not a directory")
     recs, skipped = load_csv_dir(d, labels=labels if labels else None, warn=False)
+    if op_range is not None:  # OP's 0 and 100 % given for every recording of the folder
+        for n, rec in recs.items():
+            check_op_range(rec.OP, op_range, f"--op-range, {n}")
+        recs = {n: with_meta(r, {"op_range": op_range}) for n, r in recs.items()}
     # recordings in formats batch does not read are named, not passed over in silence
     skipped += [(f.name, "batch reads CSV files; convert it, or screen it with `screen`")
                 for f in sorted(d.iterdir())
@@ -101,6 +107,7 @@ def run_batch(directory: str, labels: str | None, *, jobs: int = 2,
 
 def cmd_batch(args: argparse.Namespace) -> int:
     from ..io import atomic_directory, write_text
+    from ..op_range import given_range
     from ..validation import check_writable, jsonable, refuse_overwrite
 
     if not args.json:
@@ -109,9 +116,11 @@ def cmd_batch(args: argparse.Namespace) -> int:
         raise InputError(f"{args.labels}: no such labels file")
     refuse_overwrite([args.json, args.report], [args.directory, args.labels, args.consensus])
     check_writable([args.json], [args.report])
+    op_range = None if args.op_range is None else given_range(*args.op_range, "--op-range")
     entries, skipped, scores = run_batch(args.directory, args.labels, jobs=args.jobs,
-                                         diagnose=args.diagnose, consensus=args.consensus)
-    payload = {"directory": str(args.directory), "recordings": entries,
+                                         diagnose=args.diagnose, consensus=args.consensus,
+                                         op_range=op_range)
+    payload = {"directory": str(args.directory), "op_range": op_range, "recordings": entries,
                "skipped": [{"file": f, "reason": r} for f, r in skipped], "scores": scores}
     if args.report:
         with atomic_directory(args.report) as stage:  # all report files, or none

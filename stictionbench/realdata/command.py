@@ -61,6 +61,11 @@ def add_command(subparsers: Any) -> None:
                         "on all")
     p.add_argument("--consensus", metavar="FILE.yaml",
                    help="consensus of the detectors (default: conf/consensus/default.yaml)")
+    p.add_argument("--op-range", nargs=2, type=float, metavar=("LO", "HI"),
+                   help="OP's 0 and 100 %% in its own units for every recording (4 20 for "
+                        "milliamps): the detectors' 'OP moved by 1 %%' and J's per cent "
+                        "(default: per cent or a fraction recognised from each OP, else "
+                        "1 %% read as 1 unit); a recording whose OP leaves it is refused")
     p.set_defaults(func=_lazy("batch", "cmd_batch"))
 
     # -- comparison

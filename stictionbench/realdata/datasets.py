@@ -37,8 +37,9 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError, user_warning
-from ..io import check_input_file, csv_columns, csv_frame, read_stretches
+from ..io import CSV_SUFFIXES, check_input_file, csv_columns, csv_frame, read_stretches
 from ..recording import REQUIRED, Recording
+from ..stretches import split_at_gaps
 
 #: ISDB sector field -> loop-name prefix used in the book (Jelali & Huang 2010)
 SECTOR_PREFIX = {
@@ -244,6 +245,13 @@ def scan_isdb_mat(
         name = _book_name(sector, loop)
         where = f"{p}:{varname}.{sector}.{loop}"
         fields = _fields(ls)
+        matrix = next((f"{f} is a {' × '.join(map(str, np.shape(v)))} array, not a vector"
+                       for f in ("PV", "OP", "SP", "t")
+                       if (v := getattr(ls, f, None)) is not None
+                       and np.ndim(v) == 2 and min(np.shape(v)) > 1), None)
+        if matrix is not None:  # a time column beside the values, or several signals
+            skipped.append((name, f"{where}: {matrix}; give one signal per field"))
+            continue
         pv = _array(getattr(ls, "PV", None))
         op = _array(getattr(ls, "OP", None))
         if pv is None or op is None:
@@ -253,6 +261,9 @@ def scan_isdb_mat(
             continue
         sp = _array(getattr(ls, "SP", None))
         if sp is not None and sp.size != op.size:
+            if warn:
+                user_warning(f"{where}: SP has {sp.size} samples and OP {op.size}; SP is "
+                             "not used")
             sp = None
         Ts = _scalar(getattr(ls, "Ts", None))
         if Ts is None:
@@ -270,10 +281,17 @@ def scan_isdb_mat(
             if f in fields:
                 meta[f.lower()] = _text(getattr(ls, f))
         try:
-            recs[name] = Recording.from_arrays(t, pv, op, SP=sp, meta=meta, source=where,
-                                               first_row=0, warn=warn)
+            # gaps (NaN) handled as in a CSV: cut at long ones, the longest stretch kept
+            parts = split_at_gaps({"t": t, "PV": pv, "OP": op, "SP": sp}, source=where,
+                                  first_row=0, warn=warn, meta=meta)
         except InputError as exc:
             skipped.append((name, str(exc)))
+            continue
+        recs[name] = max(parts, key=len)
+        if len(parts) > 1 and warn:
+            rows = recs[name].meta["rows"]
+            user_warning(f"{where}: gaps cut the record into {len(parts)} usable stretches; "
+                         f"using the longest, samples {rows[0]}–{rows[1]}")
     return recs, skipped
 
 
@@ -505,7 +523,7 @@ def _label(value: Any, path: Path) -> str:
     return text
 
 
-def _with_meta(rec: Recording, extra: Mapping[str, Any]) -> Recording:
+def with_meta(rec: Recording, extra: Mapping[str, Any]) -> Recording:
     """The same Recording with ``extra`` merged into its metadata (no re-validation)."""
     md = dict(rec.meta)
     md.update(extra)
@@ -530,8 +548,9 @@ def load_csv_dir(
     labels: str | os.PathLike[str] | pd.DataFrame | bool | None = None,
     *,
     warn: bool = True,
+    label_warnings: bool = True,
 ) -> tuple[dict[str, Recording], Skipped]:
-    """Load every ``*.csv`` recording in a folder.
+    """Load every CSV recording in a folder (``*.csv``, ``*.txt``, ``*.tsv``, in any case).
 
     Files without the columns ``t, PV, OP`` (label tables, indexes) are skipped with a
     note, as are recordings that :meth:`Recording.from_arrays` rejects (the reason is its
@@ -547,8 +566,11 @@ def load_csv_dir(
         goes into ``meta["labels"]`` (all columns), ``meta["label"]`` and
         ``meta["group"]`` (the file stem when the table has no group or no row).
     warn : bool
-        Print interpolation warnings on stderr. Labelled loops without a recording in
-        the folder are always named in one warning.
+        Print interpolation warnings on stderr.
+    label_warnings : bool
+        Name in one warning each the labelled loops without a recording in the folder,
+        the label classes scored as no stiction and the recordings without a label
+        (:func:`label_notes`); ``False`` for a command that scores nothing (``screen``).
 
     Returns
     -------
@@ -578,7 +600,7 @@ def load_csv_dir(
         table = read_labels(labels)
     recs: dict[str, Recording] = {}
     skipped: Skipped = []
-    for f in sorted(d.glob("*.csv")):
+    for f in _text_files(d):
         if not f.is_file():  # a pipe, socket or device would block the read; a folder
             skipped.append((f.name, "not a regular file"))
             continue
@@ -586,7 +608,7 @@ def load_csv_dir(
         if cols is not None:
             missing = [c for c in REQUIRED if c not in cols]
             if missing:
-                what = "labels table" if "loop" in cols else "table"
+                what = "labels table" if f.name.lower() == "labels.csv" else "table"
                 skipped.append((f.name, f"not a recording ({what} without column(s) "
                                         f"{', '.join(missing)})"))
                 continue
@@ -596,18 +618,24 @@ def load_csv_dir(
             skipped.append((f.name, str(exc)))
             continue
         for name, rec in _stretch_names(f.stem, parts):
-            recs[name] = _with_meta(rec, {"name": name, "group": f.stem,
+            recs[name] = with_meta(rec, {"name": name, "group": f.stem,
                                           **_label_meta(table, f.stem)})
-    if table is not None:
+    if table is not None and label_warnings:
         label_notes(table, recs, d)
-    if table is not None:  # a labelled loop without its file: a typo or a lost file
-        stems = {f.stem for f in d.glob("*.csv")}
+    if table is not None and label_warnings:  # a labelled loop without its file
+        stems = {f.stem for f in _text_files(d)}
         orphans = [str(k) for k in table.index if str(k) not in stems]
         if orphans:
             shown = ", ".join(orphans[:5]) + (" …" if len(orphans) > 5 else "")
             user_warning(f"{d}: {len(orphans)} labelled loop(s) with no recording in the "
                          f"folder: {shown}")
     return recs, skipped
+
+
+def _text_files(d: Path) -> list[Path]:
+    """The CSV text files of a folder, their suffix (:data:`~stictionbench.io.CSV_SUFFIXES`)
+    compared without case: a Windows export's ``.CSV``, a historian's ``.txt``."""
+    return sorted(f for f in d.iterdir() if f.suffix.lower() in CSV_SUFFIXES)
 
 
 def label_notes(table: pd.DataFrame, recs: Mapping[str, Recording], where: Any) -> None:
@@ -660,7 +688,7 @@ def read_any(path: str | os.PathLike[str], *, warn: bool = True) -> dict[str, Re
                     user_warning(f"skipped {lp.name}: {exc}")
             return out
         return load_isdb_mat(p, errors="skip", warn=warn)
-    return {n: _with_meta(r, {"name": n, "group": p.stem})
+    return {n: with_meta(r, {"name": n, "group": p.stem})
             for n, r in _stretch_names(p.stem, read_stretches(p, warn=warn))}
 
 

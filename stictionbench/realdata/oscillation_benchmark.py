@@ -244,7 +244,7 @@ def run(
     if progress:
         from tqdm import tqdm
 
-        it = tqdm(loops, desc="oscillation benchmark", unit="loop", disable=None)
+        it = tqdm(loops, desc="oscillation benchmark", unit="loop", disable=False)  # asked for
     for lp in it:
         row: dict[str, Any] = {"name": lp.name, "sector": lp.sector, "loop": lp.loop,
                                "n": len(lp), "Ts": lp.Ts, "flag": lp.flag,

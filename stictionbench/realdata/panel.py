@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from ..estimators import make
+from ..op_range import op_range_of
 from ..recording import Recording
 from .quality import prepare
 
@@ -244,8 +245,13 @@ def _hammerstein(rec: Recording, kind: str) -> Call:
     no stiction only on data with set-point excitation (:func:`_unexcited`)."""
     h = _hammerstein_fit(rec)
     if h.stiction:
-        return Call("stiction", f"stick-slip valve, J = {h.J:.2g} % "
-                                f"[{h.J_interval[0]:.2g}, {h.J_interval[1]:.2g}]", h.J)
+        # J in per cent of OP's range where it is recognised (an OP in 0–1 too), else in
+        # OP's own units; the value stays in OP's units
+        span = op_range_of(rec)
+        scale, unit = (100.0 / (span[1] - span[0]), " %") if span else (1.0, " in OP's units")
+        lo, hi = (scale * v for v in h.J_interval)
+        return Call("stiction", f"stick-slip valve, J = {scale * h.J:.2g}{unit} "
+                                f"[{lo:.2g}, {hi:.2g}]", h.J)
     if (why := _unexcited(rec, h.J if h.sticky else h.S)) is not None:
         return why
     if h.sticky:

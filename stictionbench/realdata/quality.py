@@ -89,7 +89,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..estimators.noise_floor import FILLED
-from ..recording import Recording
+from ..recording import HOLD_SHARE, Recording
 from ..sim.measurement import held_fraction
 from ..validation import jsonable
 
@@ -603,7 +603,7 @@ def release_holds(rec: Recording, max_gap: int | None = None, *,
     import dataclasses
 
     n = len(rec)
-    limit = max(3, int(0.02 * n)) if max_gap is None else int(max_gap)
+    limit = max(3, int(HOLD_SHARE * n)) if max_gap is None else int(max_gap)
     k = np.arange(n)
     fills: dict[str, np.ndarray] = {}
     if joint:

@@ -2,8 +2,9 @@
 
 ``screen PATH... [--json OUT]`` reads recordings (CSV, Parquet, ISDB ``.mat``; folders are
 searched for those files, not recursively), runs :func:`stictionbench.realdata.quality.screen` on
-each and prints one line per recording: name, usable or not, and why. Files that are not
-recordings (label tables) or that cannot be read are listed as skipped.
+each and prints one line per recording: name, usable or not, its grade and score (good,
+fair, poor) and why. Files that are not recordings (label tables) or that cannot be read
+are listed as skipped.
 
 ``oscillation-benchmark [MAT] [--out DIR]`` runs
 :func:`stictionbench.realdata.oscillation_benchmark.run`.
@@ -55,7 +56,7 @@ def _collect(paths: list[str]) -> tuple[list[tuple[str, Any]], list[tuple[str, s
                 except InputError as exc:
                     skipped.append((str(p / "labels.csv"), f"labels not used: {exc}"))
                     labels = False
-            got, bad = load_csv_dir(p, labels=labels, warn=False)
+            got, bad = load_csv_dir(p, labels=labels, warn=False, label_warnings=False)
             recs.extend(got.items())
             skipped.extend((str(p / f), r) for f, r in bad)
             for f in sorted(p.iterdir()):
@@ -87,7 +88,10 @@ def cmd_screen(args: argparse.Namespace) -> int:
     w = max((len(n) for n, _, _ in reports), default=10)
     for name, _, rep in reports:
         status = "usable" if rep.usable else "UNUSABLE"
-        print(f"{name:<{w}}  {status:<8}  {rep.summary()}")
+        # the graded score (quality.grade) beside the yes/no: good, fair, poor
+        graded = f"{rep.flags.get('grade', '')} {rep.flags.get('score', float('nan')):.2f}" \
+            if rep.usable else ""
+        print(f"{name:<{w}}  {status:<8}  {graded:<9}  {rep.summary()}")
     for f, reason in skipped:
         print(f"skipped {f}: {reason}")
     n_bad = sum(not rep.usable for _, _, rep in reports)

@@ -84,17 +84,20 @@ def period_notes(period_s: float | None) -> list[str]:
     10 % of a day is the signature of a daily external cycle (ambient temperature, a
     production schedule), which the published detectors, built on the shape and phase
     of a cycle, cannot tell from a limit cycle. A note, not a verdict: no labelled loop
-    here has a daily cycle to set a rule on.
+    here has a daily cycle to set a rule on. The period is in ``t``'s unit, read as
+    seconds (a day is 86 400 of them); the note says so, since a ``t`` in milliseconds
+    turns an 86-second cycle into "a day".
 
-    >>> period_notes(86400.0 * 1.03)[0][:40]
-    'oscillation period 24.7 h, about a day: '
+    >>> period_notes(86400.0 * 1.03)[0][:60]
+    'oscillation period 24.7 h (t read as seconds), about a day: '
     >>> period_notes(600.0)
     []
     """
     if period_s is None or not math.isfinite(period_s) or \
             abs(period_s / DAY_S - 1.0) > DAY_TOLERANCE:
         return []
-    return [f"oscillation period {period_s / 3600:.1f} h, about a day: a daily external "
+    return [f"oscillation period {period_s / 3600:.1f} h (t read as seconds), about a "
+            "day: a daily external "
             "cycle (ambient temperature, a production schedule) is a likelier cause than "
             "a valve limit cycle; the detectors cannot tell them apart"]
 

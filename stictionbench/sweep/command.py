@@ -23,7 +23,9 @@ def add_command(subparsers) -> None:
     )
     p.add_argument(
         "overrides", nargs="*", metavar="KEY=VALUE",
-        help="sweep=NAME (smoke, default, sensitivity); hydra/launcher=joblib|submitit_local|"
+        help="sweep=NAME (a file of conf/sweep/: smoke, default, sensitivity and the "
+             "paper's paper_cases, paper_magnitude, paper_margin, paper_noise, "
+             "paper_period, paper_sampling); hydra/launcher=joblib|submitit_local|"
              "submitit_slurm; n_jobs=N; run.KNOB=a,b (grid) or run.KNOB=v (fixed); "
              "out_dir=DIR; batch_size=N; limit=N; retry_errors=true; aggregate_only=true; "
              "any hydra.launcher.* key",

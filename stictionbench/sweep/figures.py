@@ -48,8 +48,8 @@ def detection_heatmaps(df: pd.DataFrame, prefixes: list[str], path: Path) -> Pat
                     if m.any():
                         grid[a, b] = dec[m].mean()
                         count[a, b] = int(m.sum())
-            image = ax.imshow(grid, origin="lower", aspect="auto", vmin=0.0, vmax=1.0,
-                              cmap="viridis")
+            image = ax.imshow(100 * grid, origin="lower", aspect="auto", vmin=0.0,
+                              vmax=100.0, cmap="viridis")
             for a in range(len(S)):
                 for b in range(len(noise)):
                     if np.isfinite(grid[a, b]):
@@ -65,9 +65,9 @@ def detection_heatmaps(df: pd.DataFrame, prefixes: list[str], path: Path) -> Pat
             if j == 0:
                 ax.set_ylabel(f"{p}\nS (% of span)")
     if image is not None:
-        fig.colorbar(image, ax=axes, shrink=0.6, label="share of runs with decision True")
-    fig.suptitle(f"Share of runs (%) with decision True, {len(ok)} runs: row S = 0 is the "
-                 "false-alarm rate")
+        fig.colorbar(image, ax=axes, shrink=0.6, label="runs with decision True (%)")
+    fig.suptitle(f"Runs with decision True (%), {len(ok)} runs\nrow S = 0: the false-alarm "
+                 "rate", fontsize="medium")
     return save_png(fig, path)
 
 
@@ -78,12 +78,14 @@ def roc_figure(df: pd.DataFrame, prefixes: list[str], path: Path) -> Path:
     """
     ok = df[df["status"] == "ok"]
     label = ok["label_stiction"].map(lambda v: v is True or v == 1).to_numpy(dtype=bool)
-    fig, ax = new_figure(figsize=(5.6, 5.0))
+    fig, ax = new_figure(figsize=(8.4, 5.0))
     ax.plot([0, 1], [0, 1], color="0.6", lw=0.8, ls=":")
-    for p in prefixes:
+    for i, p in enumerate(prefixes):
         vals = pd.to_numeric(ok[f"{p}_value"], errors="coerce").to_numpy(dtype=float)
         fpr, tpr, auc = roc_curve(vals, label)
-        (line,) = ax.plot(fpr, tpr, lw=1.3, label=f"{p} (AUC {auc:.2f})")
+        # ten colours, then the next line style: no two curves drawn alike
+        (line,) = ax.plot(fpr, tpr, lw=1.3, color=f"C{i % 10}",
+                          ls=("-", "--", "-.", ":")[i // 10 % 4], label=f"{p} (AUC {auc:.2f})")
         dec = decided(ok[f"{p}_decision"])
         if label.any() and (~label).any():
             ax.plot(dec[~label].mean(), dec[label].mean(), "o", color=line.get_color(), ms=5)
@@ -94,5 +96,5 @@ def roc_figure(df: pd.DataFrame, prefixes: list[str], path: Path) -> Path:
     ax.set_ylabel("detection rate (runs with stiction)")
     ax.set_title(f"ROC of each estimator's value, {len(ok)} runs "
                  f"({int(label.sum())} with stiction); o = its decision")
-    ax.legend(loc="lower right")
+    ax.legend(loc="center left", bbox_to_anchor=(1.02, 0.5), fontsize="small")
     return save_png(fig, path)

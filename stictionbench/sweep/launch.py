@@ -101,8 +101,10 @@ def _terminate_as_interrupt():
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
 
+    from ..errors import Terminated
+
     def handler(signum, frame):
-        raise KeyboardInterrupt
+        raise Terminated
 
     previous = signal.signal(signal.SIGTERM, handler)
     return lambda: signal.signal(signal.SIGTERM, previous)
