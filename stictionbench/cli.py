@@ -16,7 +16,7 @@ import warnings
 from collections.abc import Sequence
 from importlib import import_module
 
-from .errors import InputError, Terminated, held_warnings
+from .errors import InputError, Terminated, held_warnings, interrupt_cause
 
 EXIT_BAD_INPUT = 2
 #: 128 + SIGPIPE, what a shell reports for a filter killed by a closed pipe
@@ -104,12 +104,22 @@ def _main(argv: Sequence[str] | None) -> int:
     except OSError as exc:  # a file that vanished or a disk that filled mid-run
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         return _error(f"{where}{exc.strerror or exc}", held)
-    except Terminated:
+    except KeyboardInterrupt as exc:
+        return _stopped(exc)
+    except Exception as exc:
+        # a library that caught the signal and raised its own error: still a stop
+        if (stop := interrupt_cause(exc)) is None:
+            raise
+        return _stopped(stop)
+
+
+def _stopped(exc: KeyboardInterrupt) -> int:
+    """One line and the exit code of a run stopped by SIGTERM (143) or Ctrl-C (130)."""
+    if isinstance(exc, Terminated):
         print("stictionbench: terminated", file=sys.stderr)
         return 128 + signal.SIGTERM
-    except KeyboardInterrupt:
-        print("stictionbench: interrupted", file=sys.stderr)
-        return 130
+    print("stictionbench: interrupted", file=sys.stderr)
+    return 130
 
 
 def _json_to_stdout(args: argparse.Namespace) -> int:

@@ -51,3 +51,17 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C: joblib's
     workers are shut down and no output file is left half-written; the command line
     exits 143 (128 + SIGTERM), not Ctrl-C's 130."""
+
+
+def interrupt_cause(exc: BaseException) -> KeyboardInterrupt | None:
+    """The Ctrl-C or SIGTERM (:class:`Terminated`) that an exception was raised while
+    handling, if any: a library that catches it (Hydra composing a config) raises its own
+    error instead, which must not read as a failure of the run."""
+    seen: set[int] = set()
+    cause: BaseException | None = exc
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return cause
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return None

@@ -23,6 +23,7 @@ import pandas as pd
 
 from .errors import InputError, user_warning
 from .recording import MAX_INTERPOLATED_GAP, REQUIRED, SIGNALS, Recording
+from .stretches import FAULTS
 
 COLUMNS = ("t",) + SIGNALS
 
@@ -332,11 +333,12 @@ def numbers_as_written(frame: pd.DataFrame, sep: str, columns: list[str], source
 
     A cell such as ``40.25`` or ``0,998`` shows the file's decimal mark (the other mark
     is then a thousands separator: ``1,234.5``, ``1.234,5``); a file showing both is
-    refused. When no cell shows it (``1,003`` beside ``999``: 1.003 or 1003?) each
-    column takes the reading whose neighbouring samples do not jump by a factor of a
-    thousand, and on a tie the locale's: a decimal comma in a ``;`` or tab separated
-    file (a European spreadsheet's export), a point in a ``,`` separated one. A file
-    without a comma is read as written.
+    refused. When no cell shows it (``1,003`` beside ``999``: 1.003 or 1003?) the file
+    takes the reading under which its columns' neighbouring samples jump by a factor of
+    a thousand less often, one mark for every column, and on a tie the locale's: a
+    decimal comma in a ``;`` or tab separated file with a comma in it (a European
+    spreadsheet's export), else a point. A ``,`` separated file without a comma inside a
+    cell is read as written.
 
     Raises
     ------
@@ -351,10 +353,18 @@ def numbers_as_written(frame: pd.DataFrame, sep: str, columns: list[str], source
     >>> f = pd.DataFrame({"PV": ["1.006", "5,5"], "OP": ["40", "41,25"]})
     >>> numbers_as_written(f, ";", ["PV", "OP"], "x")["PV"].tolist()
     ['1006', '5.5']
+    >>> f = pd.DataFrame({"PV": ["999", "1,000"], "OP": ["50.000", "49.975"]})
+    >>> numbers_as_written(f, "\t", ["PV", "OP"], "x").to_numpy().tolist()
+    [['999', '50.000'], ['1000', '49.975']]
+    >>> f = pd.DataFrame({"PV": ["990", "998", "1.000", "1.003"]})  # no comma at all
+    >>> numbers_as_written(f, ";", ["PV"], "x")["PV"].tolist()
+    ['990', '998', '1000', '1003']
     """
     cells = {c: frame[c].astype(str).str.strip() for c in columns}
-    if not any("," in "".join(s.tolist()) for s in cells.values()):
-        return frame  # no comma: numbers as pandas reads them, a point the decimal mark
+    commas = any("," in "".join(s.tolist()) for s in cells.values())
+    if not commas and (sep == "," or not any(s.str.fullmatch(_GROUPED["."]).any()
+                                             for s in cells.values())):
+        return frame  # numbers as pandas reads them, a point the decimal mark
 
     def shown(mark: str) -> str | None:
         other = "," if mark == "." else "."
@@ -365,29 +375,27 @@ def numbers_as_written(frame: pd.DataFrame, sep: str, columns: list[str], source
                 return str(s[hit].iloc[0])
         return None
 
+    def read(s: pd.Series, mark: str) -> pd.Series:
+        group = "," if mark == "." else "."
+        text = s.where(~s.str.fullmatch(_GROUPED[group]), s.str.replace(group, "", regex=False))
+        return text.str.replace(",", ".", regex=False) if mark == "," else text
+
     point, comma = shown("."), shown(",")
     if point is not None and comma is not None:
         raise InputError(f"{source}: numbers written with a decimal point ({point!r}) and "
                          f"with a decimal comma ({comma!r}); export the file with one")
-    default = "," if sep != "," else "."
+    if point is not None or comma is not None:
+        mark = "." if point is not None else ","
+    else:  # one mark for the whole file: the reading whose samples do not jump
+        default = "," if sep != "," and commas else "."
+        other = "." if default == "," else ","
+        jumps = {m: sum(_jumps(pd.to_numeric(read(s, m), errors="coerce")
+                               .to_numpy(dtype=float)) for s in cells.values())
+                 for m in (default, other)}
+        mark = other if jumps[other] < jumps[default] else default
     out = frame.copy()
     for c, s in cells.items():
-        readings = {}
-        for mark in ".,":
-            if (point is not None and mark != ".") or (comma is not None and mark != ","):
-                continue
-            group = "," if mark == "." else "."
-            text = s.where(~s.str.fullmatch(_GROUPED[group]),
-                           s.str.replace(group, "", regex=False))
-            readings[mark] = text.str.replace(",", ".", regex=False) if mark == "," \
-                else text
-        if len(readings) == 1 or readings[","].equals(readings["."]):
-            out[c] = next(iter(readings.values())) if len(readings) == 1 else readings[","]
-            continue
-        jumps = {m: _jumps(pd.to_numeric(r, errors="coerce").to_numpy(dtype=float))
-                 for m, r in readings.items()}
-        other = "." if default == "," else ","
-        out[c] = readings[other if jumps[other] < jumps[default] else default]
+        out[c] = read(s, mark)
     return out
 
 
@@ -411,6 +419,9 @@ HISTORIAN_STATES = frozenset({
     "scan off", "scan timeout", "shutdown", "pt created", "over range", "under range",
     "out of service", "invalid data", "#n/a", "n/a", "intf shut", "arc off-line",
     "configure", "no good data for calculation", "null", "none", "nan"})
+#: the words of :data:`HISTORIAN_STATES` that say no value was written, not that a value
+#: was bad (compared without case)
+NO_VALUE = frozenset({"null", "none", "nan"})
 #: a PI error code before its text, ``[-11059] No Good Data For Calculation``
 _ERROR_CODE = r"^\[-?\d+\]"
 
@@ -475,8 +486,10 @@ SIGNAL_ALIASES = {"co": "OP", "setpoint": "SP", "set point": "SP", "set_point": 
                   "set-point": "SP", "sv": "SP"}
 #: a unit after a column's name, ``PV (degC)``, ``OP [%]``: not part of the name
 _UNIT = re.compile(r"\s*(\([^()]*\)|\[[^\[\]]*\])\s*$")
-#: a historian tag before a signal's name: ``FIC101.PV``, ``FIC101:SP``, ``FIC101 OP``
-_TAGGED = re.compile(r"^(?P<tag>.+?)[.:/_ ](?P<signal>[^.:/_ ]+)$")
+#: a historian tag before a signal's name: ``FIC101.PV``, ``2111FIC51001:SP``,
+#: ``LYCDU.FIC10112/OP`` (a tag: no space, letters and a digit; ``Max.SP``, ``Alarm SP``,
+#: ``PV/SP`` are no tags)
+_TAGGED = re.compile(r"^(?P<tag>(?=[^ ]*\d)(?=[^ ]*[a-z])[^ ]+?)[.:/](?P<signal>[a-z]+)$")
 #: a column that looks like a set point (named in a warning when no column is read as SP)
 _SP_LIKE = re.compile(r"(^|[^a-z])(sp|sv|spt|set.?point|set.?value|target)([^a-z]|$)")
 
@@ -492,8 +505,9 @@ def _canonical_columns(frame: pd.DataFrame, source: str) -> pd.DataFrame:
     :data:`SIGNAL_ALIASES`) to the canonical ``t, SP, PV, OP, MV``; a name matched by two
     columns (``PV`` and ``pv``, ``t`` and ``time``) is an error, an exact name is never
     renamed. A signal no column names so is looked for after a historian tag
-    (``FIC101.PV``, ``FIC101:SP``), the tag the same for every signal so found: a file of
-    two loops' tags is refused.
+    (``FIC101.PV``, ``FIC101:SP``), the tag the same for every signal so found and PV or
+    OP among them: a file of two loops' tags is refused, and a tagged SP beside untagged
+    PV and OP is not read (a warning names it).
 
     Examples
     --------
@@ -525,6 +539,8 @@ def _canonical_columns(frame: pd.DataFrame, source: str) -> pd.DataFrame:
         if canon and canon != "t" and canon not in found:
             tagged.setdefault(canon, []).append((c, m["tag"]))
     tags = {tag for hits in tagged.values() for _, tag in hits}
+    if not {"PV", "OP"} & set(tagged):
+        tagged = {}  # a tagged SP or MV beside untagged PV and OP: whose is it?
     for canon, hits in tagged.items():
         if len(hits) > 1 or len(tags) > 1:
             shown = ", ".join(c for hs in tagged.values() for c, _ in hs)
@@ -563,15 +579,21 @@ def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bo
             f"{source}: missing column(s) {', '.join(missing)}; found "
             f"{', '.join(map(str, frame.columns)) or 'none'}"
         )
-    cols: dict[str, np.ndarray] = {}
+    cols: dict[str, Any] = {}
+    faults: dict[str, np.ndarray] = {}
     for name in COLUMNS:
         if name not in frame.columns:
             continue
         col = frame[name]
         if text:
             s = col.astype(str).str.strip()
-            empty = s.isin(["", "NA"]) | s.str.lower().isin(HISTORIAN_STATES) | \
+            # a fault the historian wrote (Bad, I/O Timeout): a sample known to be bad,
+            # never a value left out because it did not change (stretches.hold_on_change)
+            fault = s.str.lower().isin(HISTORIAN_STATES - NO_VALUE) | \
                 s.str.contains(_ERROR_CODE, regex=True)
+            empty = s.isin(["", "NA"]) | s.str.lower().isin(NO_VALUE) | fault
+            if fault.any() and name in ("PV", "OP", "MV"):
+                faults[name] = fault.to_numpy()
             num = pd.to_numeric(s.where(~empty, None), errors="coerce")
             bad = num.isna() & ~empty
             # date-times, unless most cells are numbers (then the rest are bad cells: a
@@ -613,6 +635,9 @@ def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bo
     for name in ("SP", "MV"):
         if name in cols and np.isnan(cols[name]).all():
             del cols[name]
+            faults.pop(name, None)
+    if faults:
+        cols[FAULTS] = faults
     return cols
 
 

@@ -41,8 +41,9 @@ def infer_op_range(op: np.ndarray) -> tuple[float, float] | None:
     median must exceed 1 % of the span (a mean-removed OP has its median near 0), unless
     OP never falls below the range's bottom and rises above that 1 % (a valve shut for
     most of the record, which a signal centred on 0 cannot be).
-    Anything else (milliamps, engineering units, mean-removed or normalised data) is
-    unknown: give the range (``--op-range``, or ``op_range`` in the model YAML).
+    Anything else (engineering units, mean-removed or normalised data) is unknown. An
+    OP in 4–20 mA lies in 0–100 and is read as per cent (a valve 4–20 % open writes the
+    same numbers): give the range (``--op-range``, or ``op_range`` in the model YAML).
 
     Parameters
     ----------

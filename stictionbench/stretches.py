@@ -69,9 +69,19 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
         When no stretch is :data:`~.recording.MIN_SAMPLES` long (the message names the
         longest gap), or from :meth:`.Recording.from_arrays`.
     """
+    cols = dict(cols)
+    faults = cols.pop(FAULTS, None) or {}
+    lengths = {np.size(v) for v in cols.values() if v is not None}
+    if len(lengths) > 1:  # signals of different lengths: the strict reader says which
+        return [Recording.from_arrays(cols["t"], cols["PV"], cols["OP"], SP=cols.get("SP"),
+                                      MV=cols.get("MV"), meta=meta, source=source,
+                                      first_row=first_row, warn=warn)]
     cols, grid_rows = missing_rows_as_gaps(cols, source=source, first_row=first_row,
                                            warn=warn)
-    cols, note = hold_on_change(cols)
+    if grid_rows is not None:  # the historian's faults on the grid (inserted rows: none)
+        faults = {k: np.where(grid_rows >= 0, f[np.maximum(grid_rows, 0)], False)
+                  for k, f in faults.items()}
+    cols, note = hold_on_change(cols, faults)
     if note and warn:
         user_warning(f"{source}: {note}")
     if cols.get("SP") is not None:
@@ -111,7 +121,13 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
 ON_CHANGE_GAPS = 10
 
 
-def hold_on_change(cols: Mapping[str, np.ndarray | None]
+#: the key of a reader's columns under which it gives, per signal, the samples the
+#: historian wrote a fault word for (``Bad``, ``I/O Timeout``): missing, never held
+FAULTS = "faults"
+
+
+def hold_on_change(cols: Mapping[str, np.ndarray | None],
+                   faults: Mapping[str, np.ndarray] | None = None
                    ) -> tuple[dict[str, np.ndarray | None], str | None]:
     """``cols`` with each measured signal (``PV, OP, MV``) that is missing in at least
     :data:`ON_CHANGE_GAPS` separate places held at its last value over its gaps, and a
@@ -124,7 +140,9 @@ def hold_on_change(cols: Mapping[str, np.ndarray | None]
     then treats both alike), for gaps up to :data:`~.recording.HOLD_SHARE` of the record
     (the longest hold that is bridged there); a longer gap, and every gap of a signal
     missing in fewer places, is an outage and stays a gap (interpolated when short, cut
-    at when long). Missing values before a signal's first value stay missing.
+    at when long). Missing values before a signal's first value stay missing, and so do
+    the samples ``faults`` marks (a fault word the historian wrote: a bad value, not an
+    unchanged one).
 
     Examples
     --------
@@ -142,25 +160,28 @@ def hold_on_change(cols: Mapping[str, np.ndarray | None]
         if v is None:
             continue
         v = np.asarray(v, float)
-        blank = np.isnan(v)
-        if not blank.any() or blank.all():
+        fault = np.asarray((faults or {}).get(name, np.zeros(v.size, bool)), bool)
+        blank = np.isnan(v) & ~fault
+        if not blank.any() or np.isnan(v).all():
             continue
-        first = int(np.argmax(~blank))
+        first = int(np.argmax(~np.isnan(v)))
         runs = [r for r in true_runs(blank) if r[0] > first]
         if len(runs) < ON_CHANGE_GAPS:
             continue
         limit = max(MAX_INTERPOLATED_GAP, int(HOLD_SHARE * v.size))
+        held = [(a, b) for a, b in runs if b - a <= limit]
+        if not held:
+            continue
         short = np.zeros(v.size, bool)
-        for a, b in runs:
-            if b - a <= limit:
-                short[a:b] = True
-        last = np.maximum.accumulate(np.where(blank, 0, np.arange(v.size)))
+        for a, b in held:
+            short[a:b] = True
+        last = np.maximum.accumulate(np.where(np.isnan(v), 0, np.arange(v.size)))
         out[name] = np.where(short, v[last], v)
-        n = int(short.sum())
-        notes.append(f"{name} held over {n} missing samples in {len(runs)} places")
-        if n < blank[first:].sum():
-            notes[-1] += (f" (longer gaps than {limit} samples, {HOLD_SHARE:.0%} of the "
-                          "record, stay gaps)")
+        notes.append(f"{name} held over {int(short.sum())} missing samples in {len(held)} "
+                     "places")
+        if len(held) < len(runs) or fault.any():
+            notes[-1] += (f" (gaps longer than {limit} samples, {HOLD_SHARE:.0%} of the "
+                          "record, and the historian's fault words stay gaps)")
     return out, ("; ".join(notes) + " (written only when it changed?)") if notes else None
 
 

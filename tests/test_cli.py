@@ -129,3 +129,34 @@ def test_sigterm_stops_a_batch_cleanly(tmp_path):
     assert p.returncode == 128 + signal.SIGTERM, err
     assert err.strip().splitlines()[-1] == "stictionbench: terminated"
     assert not out.exists()
+
+
+def test_a_signal_wrapped_by_a_library_is_still_a_stop(monkeypatch, capsys):
+    """Hydra catches a SIGTERM that arrives while it composes a config and raises its own
+    error: the command still exits 143 with one line, not as a failed run (a sweep
+    signalled 0.1 s after launching said "ConfigCompositionException", exit 2)."""
+    import signal
+
+    from stictionbench import cli
+    from stictionbench.errors import Terminated, interrupt_cause
+
+    def wrapped(_args):
+        try:
+            raise Terminated
+        except BaseException as exc:
+            raise RuntimeError("composition failed") from exc
+
+    monkeypatch.setattr(cli, "build_parser", lambda *_: _Parser(wrapped))
+    assert cli.main(["x"]) == 128 + signal.SIGTERM
+    assert capsys.readouterr().err.strip() == "stictionbench: terminated"
+    assert interrupt_cause(ValueError("plain")) is None
+
+
+class _Parser:
+    def __init__(self, func):
+        self.func = func
+
+    def parse_args(self, argv):
+        import argparse
+
+        return argparse.Namespace(func=self.func, json=None)

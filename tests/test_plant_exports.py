@@ -226,3 +226,62 @@ def test_op_in_milliamps_with_its_range_given(tmp_path, capsys):
     assert main(["batch", str(folder), "--json", str(out), "--op-range", "0", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--op-range, FIC101: OP runs from" in err[0]
+
+
+def test_fault_words_are_never_held(tmp_path):
+    """A historian's fault word ('Bad') marks a bad sample, not an unchanged one: in 12
+    places it stays a gap (cut at when long), where blank cells in 12 places are held
+    (a second newcomer pass: held, the flat PV beside a moving OP read as a stuck valve)."""
+    frame = _clean(1500)
+    starts = np.linspace(20, 1450, 12).astype(int)
+    bad = frame.astype({"PV": object})
+    blank = frame.copy()
+    for s in starts:
+        bad.loc[s:s + 29, "PV"] = "Bad"
+        blank.loc[s:s + 29, "PV"] = np.nan
+    pb, pn = tmp_path / "bad.csv", tmp_path / "blank.csv"
+    bad.to_csv(pb, index=False)
+    blank.to_csv(pn, index=False)
+    assert len(read_stretches(pb, warn=False)) == 11      # cut at every fault run (the
+    # stretches before the first and after the last are under 100 samples)
+    assert len(read_stretches(pn, warn=False)) == 1       # held: written on change
+
+
+def test_one_decimal_mark_for_the_whole_file(tmp_path):
+    """A mark settled by one column holds for all: PV '1,001' (thousands) beside OP
+    '50.000' is 1001 and 50.0, not 50000; with no comma anywhere, '1.000' after '998'
+    in a ';' file is 1000 (German thousands), not 1.0."""
+    k = np.arange(200)
+    pv, op = 1000 + 5 * np.sin(k / 10), 45 + 5 * np.cos(k / 10)
+    p = tmp_path / "d1.tsv"
+    p.write_text("t\tPV\tOP\n" + "".join(f"{10 * a}\t{round(b):,}\t{c:.3f}\n"
+                                           for a, b, c in zip(k, pv, op, strict=True)))
+    rec = read_recording(p)
+    np.testing.assert_allclose(rec.PV, np.round(pv))
+    np.testing.assert_allclose(rec.OP, np.round(op, 3))
+    de = np.round(990 + 20 * np.sin(k / 10)).astype(int)
+    q = tmp_path / "b1.csv"
+    q.write_text("t;PV;OP\n" + "".join(f"{10 * a};{f'{b:,}'.replace(',', '.')};45\n"
+                                        for a, b in zip(k, de, strict=True)))
+    np.testing.assert_array_equal(read_recording(q).PV, de)
+
+
+@pytest.mark.parametrize("extra", ["Alarm SP", "HI_ALM_SP", "Max.SP", "PV/SP",
+                                   "TIC200.SP", "Tracking MV"])
+def test_only_a_tag_and_its_own_loop_name_a_signal(tmp_path, extra):
+    """A limit, an alarm, a ratio or another loop's tag beside PV and OP is not read as a
+    signal (the prefix before a signal's name must be the same loop's tag)."""
+    frame = _clean()[["t", "PV", "OP"]].assign(x=99.0).rename(columns={"x": extra})
+    p = tmp_path / "x.csv"
+    frame.to_csv(p, index=False)
+    rec = read_recording(p, warn=False)
+    assert rec.SP is None and rec.MV is None
+
+
+def test_mat_signals_of_different_lengths_are_refused_in_one_line(tmp_path):
+    k = np.arange(600.0)
+    f = tmp_path / "m.mat"
+    scipy.io.savemat(f, {"cdata": {"chemicals": {"loop1": {
+        "PV": 50 + np.sin(k / 9)[:-10], "OP": 40 + np.cos(k / 9), "Ts": 1.0}}}})
+    recs, skipped = scan_isdb_mat(f, warn=False)
+    assert not recs and "column PV has 590 samples, expected 600" in skipped[0][1]

@@ -38,7 +38,7 @@ import pandas as pd
 
 from ..errors import InputError, user_warning
 from ..io import CSV_SUFFIXES, check_input_file, csv_columns, csv_frame, read_stretches
-from ..recording import REQUIRED, Recording
+from ..recording import MAX_INTERPOLATED_GAP, REQUIRED, Recording
 from ..stretches import split_at_gaps
 
 #: ISDB sector field -> loop-name prefix used in the book (Jelali & Huang 2010)
@@ -246,9 +246,11 @@ def scan_isdb_mat(
         where = f"{p}:{varname}.{sector}.{loop}"
         fields = _fields(ls)
         matrix = next((f"{f} is a {' × '.join(map(str, np.shape(v)))} array, not a vector"
+                       if np.ndim(v) >= 2 else f"{f} holds complex numbers"
                        for f in ("PV", "OP", "SP", "t")
                        if (v := getattr(ls, f, None)) is not None
-                       and np.ndim(v) == 2 and min(np.shape(v)) > 1), None)
+                       and ((np.ndim(v) >= 2 and sorted(np.shape(v))[-2] > 1)
+                            or np.iscomplexobj(v))), None)
         if matrix is not None:  # a time column beside the values, or several signals
             skipped.append((name, f"{where}: {matrix}; give one signal per field"))
             continue
@@ -288,10 +290,11 @@ def scan_isdb_mat(
             skipped.append((name, str(exc)))
             continue
         recs[name] = max(parts, key=len)
-        if len(parts) > 1 and warn:
+        if "rows" in recs[name].meta and warn:  # cut at long gaps, or at one at an end
             rows = recs[name].meta["rows"]
-            user_warning(f"{where}: gaps cut the record into {len(parts)} usable stretches; "
-                         f"using the longest, samples {rows[0]}–{rows[1]}")
+            user_warning(f"{where}: gaps of more than {MAX_INTERPOLATED_GAP} missing "
+                         f"samples; using the longest usable stretch, samples "
+                         f"{rows[0]}–{rows[1]} of {op.size}")
     return recs, skipped
 
 

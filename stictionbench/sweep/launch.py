@@ -20,7 +20,7 @@ from typing import Any
 
 from omegaconf import OmegaConf
 
-from ..errors import InputError
+from ..errors import InputError, interrupt_cause
 from ..io import write_text
 from .plan import Plan, Run, batch_size, make_plan, sweep_names
 
@@ -196,6 +196,8 @@ def launch(plan: Plan, pending: list[Run]) -> dict[str, Any]:
         with _hydra():
             returns = _multirun(GlobalHydra.instance().hydra, overrides, run_batch)
     except (HydraException, RuntimeError, OSError) as exc:  # e.g. no SLURM on this machine
+        if (stop := interrupt_cause(exc)) is not None:
+            raise stop from None  # a signal while Hydra composed a config: not an error
         msg = " ".join(str(exc).split())
         raise InputError(f"sweep {plan.name} stopped ({launcher}): {type(exc).__name__}: "
                          f"{msg[:300]}; finished runs are kept, rerun to resume") from None
