@@ -95,8 +95,8 @@ def figure(sets: dict[str, pd.DataFrame], methods: list[str], path: Path) -> Pat
         grid = np.array([[codes.get(str(v), 2) for v in loops[r]] for r in rows])
         ax.imshow(grid, cmap=cmap, vmin=0, vmax=len(COLOURS) - 1, aspect="auto")
         ax.set_yticks(range(len(rows)), rows)
-        ax.set_xticks(range(len(loops)), [str(s)[-14:] for s in loops["loop"]], rotation=60,
-                      ha="right", fontsize=6)
+        ax.set_xticks(range(len(loops)), [_short_tag(str(s)) for s in loops["loop"]],
+                      rotation=60, ha="right", fontsize=6)
         ax.set_title(f"{name}: verdict per physical loop")
         ax.grid(False)
     axs[0, 0].legend(handles=[Patch(color=c, label=v) for v, c in COLOURS.items()],
@@ -235,3 +235,17 @@ def run_compare(dirs: list[str], out: str, consensus_out: str | None, jobs: int)
 def cmd_compare(args: argparse.Namespace) -> int:
     run_compare(list(args.directories), args.out, args.consensus, args.jobs)
     return 0
+
+
+def _short_tag(loop: str, width: int = 14) -> str:
+    """A loop's name for a figure's axis: a long historian path shortened to its tag, the
+    part after the last ``_`` or ``.`` (``LYCDU.RHT.7050-342_FIC10112`` → ``FIC10112``),
+    not cut at a fixed width (which left ``0-342_FIC10112``).
+
+    >>> _short_tag("LYCDU.RHT.7050-342_FIC10112"), _short_tag("2111FIC46005")
+    ('FIC10112', '2111FIC46005')
+    """
+    if len(loop) <= width:
+        return loop
+    tail = loop.replace(".", "_").rsplit("_", 1)[-1]
+    return tail if tail else loop[-width:]
