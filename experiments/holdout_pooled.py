@@ -394,6 +394,9 @@ def figure(dof: pd.DataFrame, eff: pd.DataFrame, out: Path) -> Path:
     _rates(axes[2], eff, "_k", "_n")
     axes[2].set_xlabel("effect size (family units)")
     axes[2].set_title("physics named against effect size", fontsize=10)
+    axes[0].set_ylabel("share named correctly (Wilson 95 %)")
+    axes[1].set_ylabel("share of `none` called physics")
+    axes[2].set_ylabel("share named correctly (Wilson 95 %)")
     for ax in axes:
         ax.legend(fontsize=8)
     fig.tight_layout()
@@ -514,7 +517,8 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     if a.stored:
         df = pd.read_csv(OUT / "holdout_pooled.csv", keep_default_na=False,
-                         na_values={"slip_jump_p": [""], "band_dof": [""]})
+                         na_values={c: [""] for c in ("slip_jump_p", "band_dof",
+                                                     "disturbance_cycles")})
     else:
         cache = Path(a.cache)
         cache.mkdir(parents=True, exist_ok=True)
