@@ -57,7 +57,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import generator_module, jobs_reuse_args, publish, run  # noqa: E402
+from fresh_recordings import (  # noqa: E402
+    generator_module,
+    jobs_reuse_args,
+    publish,
+    run,
+    set_truths,
+)
 
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
 from stictionbench.diagnosis.openloop import highpass  # noqa: E402
@@ -544,6 +550,8 @@ def job(generator: str, *case) -> dict:
 def main(argv: list[str] | None = None) -> int:
     args = jobs_reuse_args(
         __doc__, "keep the rows of an existing CSV and run only the missing ones", argv)
+    if set_truths(SETS + SETS_C, "healthy_false_alarms.py", DATA) is None:
+        return 2
     todo, stored = [], []
     for s in SETS:
         truth = pd.read_csv(DATA / f"set_{s}" / "truth.csv")

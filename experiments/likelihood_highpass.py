@@ -55,7 +55,14 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import holdout_family as hf  # noqa: E402
 import linear_input_gate as lig  # noqa: E402
-from fresh_recordings import CLASSES, jobs_reuse_args, publish, recording, run  # noqa: E402
+from fresh_recordings import (  # noqa: E402
+    CLASSES,
+    jobs_reuse_args,
+    publish,
+    recording,
+    run,
+    set_truths,
+)
 
 from stictionbench import rates  # noqa: E402
 from stictionbench.diagnosis import diagnose, load_model  # noqa: E402
@@ -357,6 +364,9 @@ def report(df: pd.DataFrame, drift: pd.DataFrame, detect: pd.DataFrame | None = 
 def main(argv: list[str] | None = None) -> int:
     args = jobs_reuse_args(__doc__, "keep the existing CSVs' rows; run only what is missing", argv)
     csv, drift_csv = lig.OUT / "likelihood_highpass.csv", lig.OUT / "likelihood_highpass_drift.csv"
+    sets = {DRIFT_SET} | (set(pd.read_csv(csv).group) - {"holdout"} if csv.exists() else set())
+    if set_truths(sorted(sets), "likelihood_highpass.py", lig.DATA) is None:
+        return 2
     df = pd.read_csv(csv) if args.reuse and csv.exists() else _run_orders(args.jobs)
     if args.reuse and drift_csv.exists():
         drift = pd.read_csv(drift_csv)

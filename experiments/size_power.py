@@ -90,7 +90,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import concealed as cc  # noqa: E402
 import linear_input_gate as lig  # noqa: E402
-from fresh_recordings import jobs_reuse_args, publish, run  # noqa: E402
+from fresh_recordings import jobs_reuse_args, publish, run, set_truths  # noqa: E402
 from independent_set import diagnose_one  # noqa: E402
 
 from stictionbench import rates  # noqa: E402
@@ -521,6 +521,8 @@ def all_sets_args(doc: str, argv: list[str] | None = None):
     args = jobs_reuse_args(doc, "re-make the report from the cached diagnoses only", argv)
     if not args.reuse:
         lig.ensure_fresh_sets(SEEDS)
+    if set_truths(SETS, Path(sys.argv[0]).name) is None:  # one line, not a traceback
+        raise SystemExit(2)
     return args
 
 
