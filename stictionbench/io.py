@@ -275,8 +275,9 @@ def csv_frame(p: Path, nrows: int | None = None, fields: int = len(REQUIRED)
         if dot and num.isdigit() and base in names:
             raise InputError(f"{p}: column {base!r} appears more than once in the header")
     # rows with every cell empty at the end: what a spreadsheet writes below its data
-    filled = (frame.apply(lambda c: c.str.strip()) != "").any(axis=1).to_numpy()
-    last = len(filled) - int(np.argmax(filled[::-1])) if filled.any() else 0
+    last = len(frame)
+    while last > 0 and all(not str(v).strip() for v in frame.iloc[last - 1]):
+        last -= 1
     if last < len(frame):
         frame = frame.iloc[:last]
     return frame, sep
@@ -587,14 +588,25 @@ def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bo
         col = frame[name]
         if text:
             s = col.astype(str).str.strip()
-            # a fault the historian wrote (Bad, I/O Timeout): a sample known to be bad,
-            # never a value left out because it did not change (stretches.hold_on_change)
-            fault = s.str.lower().isin(HISTORIAN_STATES - NO_VALUE) | \
-                s.str.contains(_ERROR_CODE, regex=True)
-            empty = s.isin(["", "NA"]) | s.str.lower().isin(NO_VALUE) | fault
+            num = pd.to_numeric(s, errors="coerce")
+            # the words are looked for among the cells that are no number (few, or none)
+            words = num.isna().to_numpy()
+            fault = np.zeros(len(s), bool)
+            empty = np.zeros(len(s), bool)
+            if words.any():
+                w = s[words]
+                low = w.str.lower()
+                # a fault the historian wrote (Bad, I/O Timeout): a sample known to be
+                # bad, never a value left out because it did not change
+                # (stretches.hold_on_change)
+                fault[words] = (low.isin(HISTORIAN_STATES - NO_VALUE)
+                                | w.str.contains(_ERROR_CODE, regex=True)).to_numpy()
+                empty[words] = (w.isin(["", "NA"]) | low.isin(NO_VALUE)).to_numpy()
+            empty |= fault
             if fault.any() and name in ("PV", "OP", "MV"):
-                faults[name] = fault.to_numpy()
-            num = pd.to_numeric(s.where(~empty, None), errors="coerce")
+                faults[name] = fault
+            empty = pd.Series(empty, index=s.index)
+            num = num.where(~empty)
             bad = num.isna() & ~empty
             # date-times, unless most cells are numbers (then the rest are bad cells: a
             # second header part-way, a note at the end)
