@@ -106,10 +106,12 @@ def check_op_range(op: np.ndarray, span: tuple[float, float], what: str) -> None
 
     op = np.asarray(op, dtype=float)
     if not _within(op, span):
+        lo, hi = span
+        out = max(lo - op.min(), op.max() - hi) / (hi - lo)
         raise InputError(f"{what}: OP runs from {op.min():.4g} to {op.max():.4g}, outside "
-                         f"the range {span[0]:g} to {span[1]:g} given (by more than "
-                         f"{OVERSHOOT * 100:g} % of it); give OP's 0 and 100 % in OP's "
-                         "own units")
+                         f"the range {lo:g} to {hi:g} given by {100 * out:.3g} % of it "
+                         f"(over- and undershoot of up to {OVERSHOOT * 100:g} % are "
+                         "allowed); give OP's 0 and 100 % in OP's own units")
 
 
 def given_range(lo: float, hi: float, what: str) -> tuple[float, float]:

@@ -285,3 +285,23 @@ def test_mat_signals_of_different_lengths_are_refused_in_one_line(tmp_path):
         "PV": 50 + np.sin(k / 9)[:-10], "OP": 40 + np.cos(k / 9), "Ts": 1.0}}}})
     recs, skipped = scan_isdb_mat(f, warn=False)
     assert not recs and "column PV has 590 samples, expected 600" in skipped[0][1]
+
+
+def test_the_cycle_check_is_named_where_it_chose():
+    """Where the closed-loop cycle check names a valve over a significant rival of lower
+    score (ISDB CHEM10: saturation ranked first), ``decided_by`` says so instead of
+    "likelihood_tests" (a newcomer pass)."""
+    from stictionbench.diagnosis.model import NominalModel
+    from stictionbench.diagnosis.result import Diagnosis
+    from stictionbench.diagnosis.routes import decided_by
+
+    rows = [{"physics": "saturation", "significant": True, "score": 0.0},
+            {"physics": "stiction", "significant": True, "score": 4.0}]
+    d = Diagnosis(True, "stiction", {}, {}, [], [], rows, NominalModel(1.0, 10.0, 1.0), {},
+                  tests={"closed_loop_cycle": {"reproduced": True}})
+    assert decided_by(d) == "closed_loop_cycle"
+    d.tests["closed_loop_cycle"]["reproduced"] = False
+    assert decided_by(d) == "likelihood_tests"
+    rows[1]["score"] = -1.0  # the valve ranked first anyway: the ranking chose it
+    d.tests["closed_loop_cycle"]["reproduced"] = True
+    assert decided_by(d) == "likelihood_tests"

@@ -1110,12 +1110,14 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
                            "the recording (OP → PV) and used as the nominal model; the "
                            "valve hypotheses re-identify the process with the valve")
         if details["setpoint_excitation"] < MIN_SETPOINT_EXCITATION:
+            moved = ("no set point recorded" if cmp.rec.SP is None else
+                     f"the set point moved {details['setpoint_excitation']:.2g} standard "
+                     "deviations of the control error")
             details["warning"] = (
-                "regulatory data (the set point moved "
-                f"{details['setpoint_excitation']:.2g} standard deviations of the control "
-                "error): OP is the controller's answer to the unmeasured load, so the "
-                "identified process can be biased, and physics missed or wrongly named; "
-                "give --model for a reliable verdict (reports/diagnose/regulatory_bias.md)")
+                f"regulatory data ({moved}): OP is the controller's answer to the "
+                "unmeasured load, so the identified process can be biased, and physics "
+                "missed or wrongly named; give --model for a reliable verdict "
+                "(reports/diagnose/regulatory_bias.md)")
     if base.nrmse_val >= 1.0:
         details["model_warning"] = (
             f"the nominal model does not explain PV on the validation blocks (NRMSE "

@@ -35,6 +35,24 @@ def _shade(ax, windows):
         ax.axvspan(a, b, color="orange", alpha=0.2, label="mismatch window" if i == 0 else None)
 
 
+#: the time axis: in ``t``'s own unit (seconds for date-times), which may be any
+TIME_LABEL = "time (t's unit: s for date-times)"
+
+
+def _op_unit(d: Diagnosis) -> str:
+    """OP's unit on the figures' axes: per cent of travel, a fraction of it, the range
+    the user gave, or OP's own units when none is known (mean-removed, engineering)."""
+    span = d.details.get("op_range")
+    if span is None:
+        return "own units"
+    lo, hi = span
+    if (lo, hi) == (0.0, 100.0):
+        return "%"
+    if (lo, hi) == (0.0, 1.0):
+        return "fraction of travel"
+    return f"units: {lo:g} to {hi:g} = 0 to 100 %"
+
+
 def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
     """Write figures and ``summary.md`` for a diagnosis into ``out_dir``."""
     out = Path(out_dir)
@@ -58,7 +76,7 @@ def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
         ax.plot(t, best.pred, lw=1, label=f"with {d.missing_physics}")
     for i, (a, b) in enumerate(d.val_blocks):
         ax.axvspan(a, b, color="grey", alpha=0.12, label="validation" if i == 0 else None)
-    ax.set(xlabel="time (s)", ylabel="PV (deviation)", title="Recording vs simulations")
+    ax.set(xlabel=TIME_LABEL, ylabel="PV (deviation)", title="Recording vs simulations")
     ax.legend(loc="lower left")
     paths.append(save_png(fig, out / "replay.png"))
     # 2. residual before/after with windows
@@ -67,7 +85,7 @@ def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
     ax.plot(t, nom_resid, lw=0.8, label="residual, nominal")
     if d.missing_physics != "none":
         ax.plot(t, best.resid, lw=0.8, label=f"residual, with {d.missing_physics}")
-    ax.set(xlabel="time (s)", ylabel="PV − model", title="Residual before and after")
+    ax.set(xlabel=TIME_LABEL, ylabel="PV − model", title="Residual before and after")
     ax.legend(loc="lower left")
     paths.append(save_png(fig, out / "residual.png"))
     # 3. residual spectrum
@@ -84,7 +102,8 @@ def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
     # 4. phase plots: PV–OP and the estimated MV–OP
     fig, axs = new_figure(1, 2, figsize=(10, 4))
     axs[0].plot(rec.OP, rec.PV, lw=0.6)
-    axs[0].set(xlabel="OP (%)", ylabel="PV", title="PV vs OP (recorded)")
+    op_unit = _op_unit(d)
+    axs[0].set(xlabel=f"OP ({op_unit})", ylabel="PV", title="PV vs OP (recorded)")
     if d.missing_physics in ("stiction", "deadband", "saturation", "valve_characteristic"):
         mv = estimated_mv(d)
         axs[1].plot(rec.OP, mv, lw=0.8)
@@ -92,7 +111,7 @@ def write_report(d: Diagnosis, out_dir: str | Path) -> list[Path]:
     else:
         axs[1].plot(rec.OP, rec.OP, lw=0.8)
         axs[1].set(title="valve position vs OP (linear valve assumed)")
-    axs[1].set(xlabel="OP (%)", ylabel="estimated MV (%)")
+    axs[1].set(xlabel=f"OP ({op_unit})", ylabel=f"estimated MV ({op_unit})")
     paths.append(save_png(fig, out / "phase.png"))
     write_text(out / "summary.md", summary_markdown(d))
     paths.append(out / "summary.md")

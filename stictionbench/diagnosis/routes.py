@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from .evidence import VALVE_HYPOTHESES
 from .gain import GainTest
 from .result import Diagnosis
 
@@ -121,7 +122,8 @@ def valve_family_note(d: Diagnosis) -> str | None:
     >>> valve_family_note(d) is None
     True
     """
-    if d.missing_physics != "deadband" or d.details.get("decided_by") != "likelihood_tests":
+    if d.missing_physics != "deadband" or \
+            d.details.get("decided_by") not in ("likelihood_tests", "closed_loop_cycle"):
         return None
     rows = {r.get("physics"): r for r in d.ranking or []}
     db, st = rows.get("deadband"), rows.get("stiction")
@@ -246,6 +248,10 @@ DECISION_ROUTES = {
     "detection": "detection, then quantification (no model given): the published "
                  "detectors' combined verdict found a sticky valve and the stiction fit's "
                  "slip jump has an interval that excludes 0",
+    "closed_loop_cycle": "the closed-loop cycle check: the identified valve, closed with "
+                         "the loop's PI, reproduces the recorded oscillation by itself, so "
+                         "the significant valve hypothesis is named over a significant "
+                         "rival of lower score",
     "resolution_floor": "the resolution floor: the nominal model already explains PV "
                         "within it, so what the tests named is held back",
     "op_pv_independent": "the pairing check: OP and PV are independent by Haugh's test, "
@@ -282,6 +288,11 @@ def decided_by(d: Diagnosis) -> str:
             return key
     if (d.details.get("slow_line") or {}).get("named"):
         return "slow_line"
+    if (d.tests.get("closed_loop_cycle") or {}).get("reproduced") and \
+            d.missing_physics in VALVE_HYPOTHESES:
+        sig = [r for r in d.ranking if r.get("significant")]
+        if sig and min(sig, key=lambda r: r["score"])["physics"] not in VALVE_HYPOTHESES:
+            return "closed_loop_cycle"
     return "likelihood_tests"
 
 
