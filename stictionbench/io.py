@@ -507,8 +507,8 @@ def _canonical_columns(frame: pd.DataFrame, source: str) -> pd.DataFrame:
     columns (``PV`` and ``pv``, ``t`` and ``time``) is an error, an exact name is never
     renamed. A signal no column names so is looked for after a historian tag
     (``FIC101.PV``, ``FIC101:SP``), the tag the same for every signal so found and PV or
-    OP among them: a file of two loops' tags is refused, and a tagged SP beside untagged
-    PV and OP is not read (a warning names it).
+    OP among them, or in the file's name: a file of two loops' tags is refused, and
+    another loop's tagged SP beside untagged PV and OP is not read (a warning names it).
 
     Examples
     --------
@@ -540,8 +540,11 @@ def _canonical_columns(frame: pd.DataFrame, source: str) -> pd.DataFrame:
         if canon and canon != "t" and canon not in found:
             tagged.setdefault(canon, []).append((c, m["tag"]))
     tags = {tag for hits in tagged.values() for _, tag in hits}
-    if not {"PV", "OP"} & set(tagged):
-        tagged = {}  # a tagged SP or MV beside untagged PV and OP: whose is it?
+    stem = Path(source).stem.lower()
+    if not {"PV", "OP"} & set(tagged) and not all(t in stem for t in tags):
+        # a tagged SP or MV beside untagged PV and OP: the loop's own only when its tag is
+        # in the file's name (FIC51001.SP in 2111FIC51001_0610.csv), else whose is it?
+        tagged = {}
     for canon, hits in tagged.items():
         if len(hits) > 1 or len(tags) > 1:
             shown = ", ".join(c for hs in tagged.values() for c, _ in hs)

@@ -305,3 +305,14 @@ def test_the_cycle_check_is_named_where_it_chose():
     rows[1]["score"] = -1.0  # the valve ranked first anyway: the ranking chose it
     d.tests["closed_loop_cycle"]["reproduced"] = True
     assert decided_by(d) == "likelihood_tests"
+
+
+def test_a_tagged_set_point_of_the_files_own_loop(tmp_path):
+    """``FIC51001.SP`` beside plain PV and OP is the loop's own set point when the file is
+    named for that loop; ``TIC200.SP`` in the same file is not."""
+    frame = _clean()
+    p = tmp_path / "2111FIC51001_0610_0004.csv"
+    frame.rename(columns={"SP": "FIC51001.SP"}).to_csv(p, index=False)
+    np.testing.assert_array_equal(read_recording(p).SP, frame.SP)
+    frame.rename(columns={"SP": "TIC200.SP"}).to_csv(p, index=False)
+    assert read_recording(p, warn=False).SP is None
