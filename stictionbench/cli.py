@@ -62,6 +62,7 @@ def _terminate(signum: int, frame: object) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``stictionbench`` console script (SIGTERM handled as
     :class:`Terminated` while it runs; the previous handler restored after)."""
+    _quiet_worker_cleanup()
     if threading.current_thread() is not threading.main_thread():
         return _main(argv)
     previous = signal.signal(signal.SIGTERM, _terminate)
@@ -69,6 +70,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _main(argv)
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+#: joblib's process pool (loky) cleans up with a helper process that warns when a stopped
+#: run's workers already removed what it was to remove: a line on stderr after the
+#: command's own one-line message, telling the user nothing
+WORKER_CLEANUP_WARNING = "ignore:resource_tracker:UserWarning"
+
+
+def _quiet_worker_cleanup() -> None:
+    """Pass :data:`WORKER_CLEANUP_WARNING` to the child processes (through
+    ``PYTHONWARNINGS``, which they read at start), keeping any filter already set."""
+    have = os.environ.get("PYTHONWARNINGS", "")
+    if WORKER_CLEANUP_WARNING not in have.split(","):
+        os.environ["PYTHONWARNINGS"] = ",".join(filter(None, [have, WORKER_CLEANUP_WARNING]))
 
 
 def _main(argv: Sequence[str] | None) -> int:

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import InputError, user_warning
-from .recording import MAX_INTERPOLATED_GAP, REQUIRED, SIGNALS, Recording
+from .recording import REQUIRED, SIGNALS, Recording
 from .stretches import FAULTS
 
 COLUMNS = ("t",) + SIGNALS
@@ -207,21 +207,9 @@ def read_longest_stretch(path: str | os.PathLike[str], *, warn: bool = True) -> 
     """The longest usable stretch of a recording (:func:`read_stretches`); a warning on
     stderr names the rows used and the stretches left out, or the rows used when a long
     gap at the start or the end was cut off."""
-    parts = read_stretches(path, warn=warn)
-    best = max(parts, key=len)
-    if len(parts) > 1 and warn:
-        rows = best.meta["rows"]
-        others = ", ".join(f"rows {r.meta['rows'][0]}–{r.meta['rows'][1]}"
-                           for r in parts if r is not best)
-        user_warning(f"{path}: gaps of more than {MAX_INTERPOLATED_GAP} missing samples cut "
-                     f"the record into {len(parts)} usable stretches; using the longest, "
-                     f"rows {rows[0]}–{rows[1]} ({len(best)} samples); not used: {others}")
-    elif "rows" in best.meta and warn:  # one stretch: a long gap at the start or the end
-        rows = best.meta["rows"]
-        user_warning(f"{path}: using rows {rows[0]}–{rows[1]} ({len(best)} samples); the "
-                     f"rows before or after them are a gap of more than "
-                     f"{MAX_INTERPOLATED_GAP} missing samples")
-    return best
+    from .stretches import longest_stretch
+
+    return longest_stretch(read_stretches(path, warn=warn), str(path), warn)
 
 
 def _read_columns(path: str | os.PathLike[str], *, warn: bool = True
@@ -291,9 +279,8 @@ def _read_fields(p: Path, encoding: str, kw: dict[str, Any]) -> pd.DataFrame:
         warnings.simplefilter("error", pd.errors.ParserWarning)
         try:
             return pd.read_csv(p, encoding=encoding, **kw)
-        except pd.errors.ParserWarning:
-            pass
-    names = pd.read_csv(p, encoding=encoding, **{**kw, "nrows": 0}).columns
+        except pd.errors.ParserWarning:  # more fields in a row than names in the header
+            names = pd.read_csv(p, encoding=encoding, **{**kw, "nrows": 0}).columns
     raw = pd.read_csv(p, encoding=encoding, header=None, skiprows=1,
                       **{k: v for k, v in kw.items() if k != "index_col"})
     extra = raw.iloc[:, len(names):]
@@ -567,12 +554,12 @@ def _read_parquet(p: Path, *, warn: bool = True) -> tuple[str, dict[str, Any], i
         frame = pd.read_parquet(p)
     except Exception as exc:  # pyarrow raises several types for corrupt files
         raise InputError(f"{p}: not a readable Parquet file ({type(exc).__name__})") from None
+    frame = _canonical_columns(frame, str(p))
     return str(p), _frame_columns(frame, str(p), first_row=0, text=False, warn=warn), 0
 
 
 def _frame_columns(frame: pd.DataFrame, source: str, *, first_row: int, text: bool,
                    warn: bool = True) -> dict[str, Any]:
-    frame = _canonical_columns(frame, source)
     unread = _unread_setpoint([str(c) for c in frame.columns])
     if unread is not None and warn:
         user_warning(f"{source}: column {unread!r} is not read as the set point; name it "

@@ -237,6 +237,17 @@ def _as_columns(raw: dict[str, Any], source: str) -> dict[str, np.ndarray | None
     return arrays
 
 
+def last_written(missing: np.ndarray) -> np.ndarray:
+    """For each sample, the index of the last one not ``missing`` at or before it (0
+    before the first): the index a hold of the last written value reads.
+
+    >>> last_written(np.array([False, True, True, False, True])).tolist()
+    [0, 0, 0, 3, 3]
+    """
+    missing = np.asarray(missing, bool)
+    return np.maximum.accumulate(np.where(missing, 0, np.arange(missing.size)))
+
+
 def hold_setpoint(sp: np.ndarray | None, source: str, first_row: int = 0
                   ) -> tuple[np.ndarray | None, str | None]:
     """The set point with its blank cells filled by holding the last logged value
@@ -274,8 +285,7 @@ def hold_setpoint(sp: np.ndarray | None, source: str, first_row: int = 0
         return None, (f"{source}: column SP: rows {first_row}–{first_row + first - 1} are "
                       "blank, so the set point before its first logged value is unknown; "
                       "SP is read as not recorded")
-    last = np.maximum.accumulate(np.where(blank, 0, np.arange(sp.size)))
-    held = sp[last]
+    held = sp[last_written(blank)]
     held[:first] = sp[first]
     return held, (f"{source}: column SP: {int(blank.sum())} blank cells filled by holding "
                   "the last logged set point (logged only when it changed?)")

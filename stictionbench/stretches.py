@@ -29,6 +29,7 @@ from .recording import (
     UNIFORM_TOLERANCE,
     Recording,
     hold_setpoint,
+    last_written,
 )
 
 
@@ -71,11 +72,15 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
     """
     cols = dict(cols)
     faults = cols.pop(FAULTS, None) or {}
-    lengths = {np.size(v) for v in cols.values() if v is not None}
-    if len(lengths) > 1:  # signals of different lengths: the strict reader says which
-        return [Recording.from_arrays(cols["t"], cols["PV"], cols["OP"], SP=cols.get("SP"),
-                                      MV=cols.get("MV"), meta=meta, source=source,
+
+    def strict(c: Mapping[str, Any]) -> list[Recording]:
+        """The whole record by the strict reader (its message where it cannot be one)."""
+        return [Recording.from_arrays(c["t"], c["PV"], c["OP"], SP=c.get("SP"),
+                                      MV=c.get("MV"), meta=meta, source=source,
                                       first_row=first_row, warn=warn)]
+
+    if len({np.size(v) for v in cols.values() if v is not None}) > 1:
+        return strict(cols)  # signals of different lengths: the strict reader says which
     cols, grid_rows = missing_rows_as_gaps(cols, source=source, first_row=first_row,
                                            warn=warn)
     if grid_rows is not None:  # the historian's faults on the grid (inserted rows: none)
@@ -98,10 +103,7 @@ def split_at_gaps(cols: Mapping[str, np.ndarray | None], *, source: str, first_r
             missing |= np.isnan(v)
     spans = stretches(missing)
     if not spans or not any(b - a > MAX_INTERPOLATED_GAP for a, b in true_runs(missing)):
-        # no long gap (or nothing usable): the strict reader's answer, message included
-        return [Recording.from_arrays(cols["t"], cols["PV"], cols["OP"], SP=cols.get("SP"),
-                                      MV=cols.get("MV"), meta=meta, source=source,
-                                      first_row=first_row, warn=warn)]
+        return strict(cols)  # no long gap (or nothing usable): the strict reader's answer
     out = []
     for a, b in spans:
         ends = (a, b - 1) if grid_rows is None else (grid_rows[a], grid_rows[b - 1])
@@ -175,8 +177,7 @@ def hold_on_change(cols: Mapping[str, np.ndarray | None],
         short = np.zeros(v.size, bool)
         for a, b in held:
             short[a:b] = True
-        last = np.maximum.accumulate(np.where(np.isnan(v), 0, np.arange(v.size)))
-        out[name] = np.where(short, v[last], v)
+        out[name] = np.where(short, v[last_written(np.isnan(v))], v)
         notes.append(f"{name} held over {int(short.sum())} missing samples in {len(held)} "
                      "places")
         if len(held) < len(runs) or fault.any():
@@ -251,3 +252,24 @@ def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """
     edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(np.int8), 0]))
     return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def longest_stretch(parts: list[Recording], where: str, warn: bool) -> Recording:
+    """The longest of a record's usable stretches (:func:`split_at_gaps`), with one
+    warning on stderr naming the rows used and the stretches left out, or the rows used
+    when a long gap at the start or the end was cut off."""
+    best = max(parts, key=len)
+    if "rows" not in best.meta or not warn:
+        return best
+    rows = best.meta["rows"]
+    if len(parts) > 1:
+        others = ", ".join(f"rows {r.meta['rows'][0]}–{r.meta['rows'][1]}"
+                           for r in parts if r is not best)
+        user_warning(f"{where}: gaps of more than {MAX_INTERPOLATED_GAP} missing samples cut "
+                     f"the record into {len(parts)} usable stretches; using the longest, "
+                     f"rows {rows[0]}–{rows[1]} ({len(best)} samples); not used: {others}")
+    else:  # one stretch: a long gap at the start or the end
+        user_warning(f"{where}: using rows {rows[0]}–{rows[1]} ({len(best)} samples); the "
+                     f"rows before or after them are a gap of more than "
+                     f"{MAX_INTERPOLATED_GAP} missing samples")
+    return best

@@ -160,3 +160,25 @@ class _Parser:
         import argparse
 
         return argparse.Namespace(func=self.func, json=None)
+
+
+def test_worker_cleanup_warnings_stay_off_stderr(monkeypatch):
+    """The warning joblib's resource tracker (a child process) prints when a stopped
+    run's workers already removed what it cleans up is filtered in child processes, so a
+    stopped command's stderr stays one line (a loaded run of the sweep's SIGTERM test)."""
+    import subprocess
+    import sys
+
+    from stictionbench import cli
+
+    monkeypatch.setenv("PYTHONWARNINGS", "default::DeprecationWarning")
+    cli._quiet_worker_cleanup()
+    cli._quiet_worker_cleanup()  # once only
+    import os
+
+    assert os.environ["PYTHONWARNINGS"] == ("default::DeprecationWarning,"
+                                            + cli.WORKER_CLEANUP_WARNING)
+    code = ("import warnings; warnings.warn('resource_tracker: /dev/shm/x: "
+            "FileNotFoundError()'); warnings.warn('another warning')")
+    err = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stderr
+    assert "resource_tracker" not in err and "another warning" in err

@@ -38,8 +38,8 @@ import pandas as pd
 
 from ..errors import InputError, user_warning
 from ..io import CSV_SUFFIXES, check_input_file, csv_columns, csv_frame, read_stretches
-from ..recording import MAX_INTERPOLATED_GAP, REQUIRED, Recording
-from ..stretches import split_at_gaps
+from ..recording import REQUIRED, Recording
+from ..stretches import longest_stretch, split_at_gaps
 
 #: ISDB sector field -> loop-name prefix used in the book (Jelali & Huang 2010)
 SECTOR_PREFIX = {
@@ -289,12 +289,7 @@ def scan_isdb_mat(
         except InputError as exc:
             skipped.append((name, str(exc)))
             continue
-        recs[name] = max(parts, key=len)
-        if "rows" in recs[name].meta and warn:  # cut at long gaps, or at one at an end
-            rows = recs[name].meta["rows"]
-            user_warning(f"{where}: gaps of more than {MAX_INTERPOLATED_GAP} missing "
-                         f"samples; using the longest usable stretch, samples "
-                         f"{rows[0]}–{rows[1]} of {op.size}")
+        recs[name] = longest_stretch(parts, where, warn)
     return recs, skipped
 
 
