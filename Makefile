@@ -146,8 +146,10 @@ concealed: venv
 # and the nominal model aligned within half a sample (half_sample_alignment), its cost
 # checked against the PI's period (half_sample_convention), and detection-then-
 # quantification in the model-free diagnose (two_stage_diagnose), its detection without the
-# Hammerstein detector on fresh recordings (detection_independent; about 555 minutes on 2
-# cores in all)
+# Hammerstein detector on fresh recordings (detection_independent), and the saturation's
+# limits bounded by OP's median against the whole range, every recording both ways
+# (saturation_bounds, about 50 minutes), and one direction of Haugh's test, OP leading PV
+# (op_drives_pv; about 610 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -212,6 +214,8 @@ independent: venv
 	$(BIN)/python experiments/model_error.py --jobs 2
 	$(BIN)/python experiments/two_stage_diagnose.py --jobs 2
 	$(BIN)/python experiments/detection_independent.py --write-sets --jobs 2
+	$(BIN)/python experiments/saturation_bounds.py --seeds 10 --jobs 2
+	$(BIN)/python experiments/op_drives_pv.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

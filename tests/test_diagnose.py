@@ -1133,6 +1133,21 @@ def test_mismatch_band_is_quiet_when_op_sits_flat_at_a_limit():
     assert np.isnan(info["coherence"]).all()
 
 
+def test_a_band_at_the_spectrum_s_slowest_period_is_said_open_below():
+    """CHEM12's 473 s line lay outside its reported band (9–256 s): the Welch segments
+    resolve no period slower than 256 samples, so a band reaching that bin is marked."""
+    from stictionbench.diagnosis.locate import mismatch_band
+
+    rng = np.random.default_rng(0)
+    t = np.arange(4096.0)
+    slow = rng.normal(size=t.size) + 8.0 * np.sin(2 * np.pi * t / 473.0)
+    band, info = mismatch_band(slow, 1.0, 1.0)
+    assert info["open_below"] and band[0] == pytest.approx(1 / 256)
+    fast = rng.normal(size=t.size) + 3.0 * np.sin(2 * np.pi * t / 20.0)
+    band, info = mismatch_band(fast, 1.0, 1.0)
+    assert not info["open_below"] and band[0] < 1 / 20 < band[1]
+
+
 def test_a_dead_band_named_on_the_stiction_fit_says_so(tmp_path, capsys):
     """The refinery's sticky flow loop repeated five times (a newcomer's test input):
     the stiction fit beats the nominal, J is not resolved, so the dead band is named

@@ -16,6 +16,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..validation import check_writable, refuse_overwrite
     from .diagnose import RESOLUTION_FLOOR, WARNING_KEYS, diagnose
     from .model import load_model
+    from .routes import DRIVE_CHECK
 
     if not args.json:
         raise InputError("diagnose needs --json OUT.json")
@@ -62,7 +63,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                  test_highpass_order=args.test_highpass_order,
                  test_noise_family=args.test_noise_family, line_test=args.line_test,
                  intersample=args.intersample is not False, resolution_floor=floor,
-                 detection=args.detection, pairing_check=args.pairing_check)
+                 detection=args.detection, pairing_check=args.pairing_check,
+                 drive_check=DRIVE_CHECK if args.drive_check is None else args.drive_check)
     payload = d.to_json()
     payload.update(source_keys(args.recording, rec))
     try:  # serialised before anything is written: no report without its JSON
@@ -191,4 +193,9 @@ def add_command(sub) -> None:
                         "another loop, or a frozen PV); off by default: on "
                         "wrong-tag recordings it halved the physics named with a model, not "
                         "quite without one (reports/diagnose/pairing_check.md)")
+    p.add_argument("--drive-check", action=argparse.BooleanOptionalAction, default=None,
+                   help="answer none where OP does not drive PV: OP leads PV at no lag by "
+                        "one direction of Haugh's test (tests.op_pv_dependence.op_drives_pv, "
+                        "always given): a valve at rest, a controller whose output goes "
+                        "elsewhere (default: off; reports/diagnose/op_drives_pv.md)")
     p.set_defaults(func=cmd_diagnose)

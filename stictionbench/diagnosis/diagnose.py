@@ -96,15 +96,18 @@ from .process import (
     MIN_SETPOINT_EXCITATION,
     fit_fopdt,
     identify_fopdt,
+    search_limits,
     setpoint_excitation,
 )
 from .result import Diagnosis
 from .rival import rival_test
 from .routes import (
     DECISION_ROUTES,
+    DRIVE_CHECK,
     RESOLUTION_FLOOR,
     after_comparison,
     decided_by,
+    drive_answer,
     floor_answer,
     name_gain_error,
     name_held_limit,
@@ -795,7 +798,7 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              intersample: bool = True,
              resolution_floor: float = RESOLUTION_FLOOR,
              alignment: float = 1.0, detection: bool = False,
-             pairing_check: bool = False) -> Diagnosis:
+             pairing_check: bool = False, drive_check: bool = DRIVE_CHECK) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -904,6 +907,12 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         at ``alpha`` (:func:`.routes.pairing_answer`; what was named stays under
         ``details.op_pv_independent``). The test itself (``tests.op_pv_dependence``) and
         its warning (``details.pairing_warning``) are always given.
+    drive_check : bool
+        Answer ``none`` in place of a physics acting through OP where OP does not drive
+        PV: the pairing test's lags at which OP leads PV show nothing
+        (``tests.op_pv_dependence.op_drives_pv``, :func:`.routes.drive_answer`; what was
+        named stays under ``details.op_not_driving_pv``); default
+        :data:`.routes.DRIVE_CHECK` (``reports/diagnose/op_drives_pv.md``).
 
     Returns
     -------
@@ -966,6 +975,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d.details["pairing_warning"] = pairing["warning"]
     if pairing_check:
         d = pairing_answer(d, alpha)
+    if drive_check:
+        d = drive_answer(d, alpha)
     if (note := valve_family_note(d)) is not None:
         d.details["valve_family_note"] = note
     d.details["seconds"] = time.perf_counter() - t0
@@ -1091,6 +1102,7 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
         "burn_in_samples": int(cmp.burn),
         "validation_windows": cmp.val_blocks,
         "band_coherence_with_op": loc.spectrum.get("band_coherence"),
+        "mismatch_band_open_below": bool(loc.spectrum.get("open_below", False)),
         "closed_loop_replay": None if cl is None else
         {"pv_nrmse": cl["pv_nrmse"], "op_nrmse": cl["op_nrmse"]},
         "hammerstein": None if ham is None else ham.to_dict(),
@@ -1118,12 +1130,17 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
                 "unmeasured load, so the identified process can be biased, and physics "
                 "missed or wrongly named; give --model for a reliable verdict "
                 "(reports/diagnose/regulatory_bias.md)")
+    said = []
     if base.nrmse_val >= 1.0:
-        details["model_warning"] = (
+        said.append(
             f"the nominal model does not explain PV on the validation blocks (NRMSE "
             f"{base.nrmse_val:.2f}: no better than PV's mean), so a verdict against it "
             "says little" + (": the process identified from OP → PV is not the loop's"
                              if cmp.model.source == "identified" else ""))
+    if cmp.model.source == "identified" and (edge := _at_search_limit(cmp)) is not None:
+        said.append(edge)
+    if said:
+        details["model_warning"] = "; ".join(said)
     if cl is not None:
         details["_cl_arrays"] = cl
     return Diagnosis(
@@ -1140,6 +1157,26 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
         details=details, noise_model=verdict.noise.to_dict(), tests=verdict.tests,
         rec=cmp.rec, fits=fits, spectrum=loc.spectrum, train_end=cmp.split,
         val_blocks=cmp.val_blocks, burn=cmp.burn)
+
+
+def _at_search_limit(cmp: Comparison) -> str | None:
+    """What an identified time constant or dead time on the identification's search limit
+    (:func:`.process.search_limits`: half and a quarter of the record) means, else
+    ``None``: the record holds no settling of the process, only a drift, so the model,
+    and every time scale built on it (the comparison band, the record-length warning),
+    are the record's length, not the loop's."""
+    tau_max, theta_max = search_limits(len(cmp.rec.PV), cmp.rec.Ts)
+    m = cmp.model
+    hit = [f"{what} = {v:.4g} s" for what, v, top in (
+        ("τ", m.time_constant, tau_max), ("θ", m.dead_time, theta_max)) if v >= 0.99 * top]
+    if not hit:
+        return None
+    return (f"the identified {' and '.join(hit)} sits on the identification's search limit "
+            f"(τ up to half the record, {tau_max:.4g} s; θ up to a quarter, "
+            f"{theta_max:.4g} s): the record holds no settling of the process, only a "
+            "drift, so the identified model and the time scales built on it (the band, "
+            "the record-length warning) reflect the record's length, not the loop's; "
+            "give --model, or a record with set-point moves")
 
 
 def closed_loop_replay(rec: Recording, m: NominalModel) -> dict[str, Any] | None:

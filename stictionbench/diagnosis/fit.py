@@ -157,10 +157,12 @@ def _local_search(h: Hypothesis, ctx: Context, p0: np.ndarray, cost,
     if not finite.any():
         return
     if h.name == "saturation":
-        # refine only the active (finite) limits, in OP units
+        # refine only the active (finite) limits, in OP units, within their bounds
+        lo, hi = (np.array(b)[finite] for b in zip(*h.bounds(ctx), strict=True))
+
         def obj(z):
             p = p0.copy()
-            p[finite] = z
+            p[finite] = np.clip(z, lo, hi)
             return cost(p) / scale
         minimize(obj, p0[finite], method="Nelder-Mead",
                  options={"xatol": 0.02, "fatol": 1e-12, "maxiter": 60})

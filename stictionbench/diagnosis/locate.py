@@ -48,7 +48,10 @@ def mismatch_band(r: np.ndarray, Ts: float, sigma: float, op: np.ndarray | None 
                   excess: float = 4.0) -> tuple[list[float], dict]:
     """Frequency band (Hz) around the largest excess of the residual PSD over the white
     noise floor ``2σ²Ts`` (one-sided); empty when nothing exceeds ``excess``× the floor.
-    Also returns the spectrum and the residual–OP coherence for reporting."""
+    Also returns the spectrum and the residual–OP coherence for reporting, and
+    ``open_below``: the band reaches the lowest frequency the Welch segments resolve
+    (``1/(nperseg·Ts)``), so its lower edge is that resolution, and the excess may extend
+    to slower periods than the band says."""
     nper = int(min(256, max(16, r.size // 4)))
     f, P = welch(r, fs=1.0 / Ts, nperseg=nper, detrend="constant")
     floor = 2.0 * sigma * sigma * Ts
@@ -72,6 +75,7 @@ def mismatch_band(r: np.ndarray, Ts: float, sigma: float, op: np.ndarray | None 
     while hi < f.size - 1 and ratio[hi + 1] >= excess:
         hi += 1
     band = [float(f[max(lo - 1, 0)] if lo > 1 else f[lo]), float(f[min(hi + 1, f.size - 1)])]
+    info["open_below"] = bool(lo <= 1)
     if op is not None:
         sel = (info["coherence_f"] >= band[0]) & (info["coherence_f"] <= band[1])
         info["band_coherence"] = float(np.mean(info["coherence"][sel])) if sel.any() else None

@@ -336,17 +336,24 @@ def series_independence(y: np.ndarray, u: np.ndarray, lags: int = INDEPENDENCE_L
     recording's OP does not drive its PV: a tag of another loop, or a loop with no
     dynamics in the record. ``M = min(lags, N/10)``.
 
+    The same sum over the lags ``1 … M`` alone (``u`` leads ``y``) against χ²(M) tests
+    one direction of the dependence (Pierce & Haugh): in a closed loop whose OP (``u``)
+    does not reach its PV (``y``) — a valve at rest, a controller in manual — PV still
+    drives OP through the controller, at lags ``≤ 0``, and nothing leads the other way.
+
     Returns
     -------
     dict
-        ``statistic``, ``p_value``, ``lags`` (M), and ``peak_lag``, the lag of the largest
-        ``|r̂(k)|`` (positive: ``u`` leads).
+        ``statistic``, ``p_value``, ``lags`` (M), ``peak_lag``, the lag of the largest
+        ``|r̂(k)|`` (positive: ``u`` leads), and ``p_u_leads`` / ``p_y_leads``, the tests
+        over the lags ``1 … M`` / ``−M … −1`` alone.
 
     References
     ----------
     L. D. Haugh, "Checking the independence of two covariance-stationary time series: a
     univariate residual cross-correlation approach", *JASA* 71 (1976) 378–385; Box,
-    Jenkins & Reinsel, *Time Series Analysis* (4th ed., 2008), §11.1.
+    Jenkins & Reinsel, *Time Series Analysis* (4th ed., 2008), §11.1; D. A. Pierce and
+    L. D. Haugh, "Causality in temporal systems", *J. Econometrics* 5 (1977) 265–293.
 
     Examples
     --------
@@ -356,8 +363,10 @@ def series_independence(y: np.ndarray, u: np.ndarray, lags: int = INDEPENDENCE_L
     True
     >>> y = a[5:] + 0.3 * b[:-5]  # y(t) = a(t) + 0.3 b(t − 5): b leads by five samples
     >>> r = series_independence(y, b[5:])
-    >>> bool(r["p_value"] < 1e-6), r["peak_lag"]
-    (True, 5)
+    >>> bool(r["p_value"] < 1e-6), r["peak_lag"], bool(r["p_u_leads"] < 1e-6)
+    (True, 5, True)
+    >>> bool(series_independence(b[5:], y)["p_u_leads"] > 1e-3)  # y does not lead b
+    True
     """
     from scipy.signal import correlate
 
@@ -373,12 +382,17 @@ def series_independence(y: np.ndarray, u: np.ndarray, lags: int = INDEPENDENCE_L
     m = int(max(1, min(lags, n // 10)))
     den = math.sqrt(float(np.dot(a, a)) * float(np.dot(b, b)))
     if den <= 0 or n <= 2 * m + 2:
-        return {"statistic": 0.0, "p_value": 1.0, "lags": m, "peak_lag": 0}
+        return {"statistic": 0.0, "p_value": 1.0, "lags": m, "peak_lag": 0,
+                "p_u_leads": 1.0, "p_y_leads": 1.0}
+    # correlate(a, b)[n - 1 + j] = Σ a[i + j]·b[i]: a (y) later than b (u) by j, u leads
     c = correlate(a, b, mode="full", method="fft")[n - 1 - m: n + m] / den
     k = np.arange(-m, m + 1)
-    stat = float(n * n * np.sum(c * c / (n - np.abs(k))))
+    terms = n * n * c * c / (n - np.abs(k))
+    stat = float(np.sum(terms))
     return {"statistic": stat, "p_value": float(chi2.sf(stat, 2 * m + 1)), "lags": m,
-            "peak_lag": int(k[np.argmax(np.abs(c))])}
+            "peak_lag": int(k[np.argmax(np.abs(c))]),
+            "p_u_leads": float(chi2.sf(float(np.sum(terms[k > 0])), m)),
+            "p_y_leads": float(chi2.sf(float(np.sum(terms[k < 0])), m))}
 
 
 def lr_test(v_null: float, v_alt: float, n: int, df: int) -> dict[str, float]:

@@ -31,6 +31,20 @@ from .openloop import fopdt_response, highpass
 CRITERIA = ("output_error", "prediction_error")
 
 
+def search_limits(n: int, Ts: float) -> tuple[float, float]:
+    """The largest ``(τ, θ)`` the identification searches on ``n`` samples at ``Ts``: half
+    and a quarter of the record (at least two samples and one). A fit there has found no
+    settling inside the record, only a drift.
+
+    Examples
+    --------
+    >>> search_limits(3000, 1.0)
+    (1500.0, 750.0)
+    """
+    T = n * Ts
+    return max(2 * Ts, T / 2), max(Ts, T / 4)
+
+
 def _grid_and_refine(cost, n: int, Ts: float,
                      starts: tuple[tuple[float, float], ...] = ()) -> tuple[float, float]:
     """``(τ, θ)`` minimising ``cost(τ, θ)``: a grid over τ (geometric, ``Ts`` to an eighth
@@ -46,7 +60,7 @@ def _grid_and_refine(cost, n: int, Ts: float,
             c = cost(tau, th)
             if c < best[0]:
                 best = (c, tau, th)
-    tau_max, theta_max = max(2 * Ts, T / 2), max(Ts, T / 4)
+    tau_max, theta_max = search_limits(n, Ts)
 
     # search coordinates (ln τ, θ/Ts), and an initial simplex of 0.3 in ln τ and one
     # sample in θ: dimensionless, so the fit does not depend on the unit of time

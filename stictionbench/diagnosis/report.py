@@ -306,7 +306,9 @@ def summary_markdown(d: Diagnosis) -> str:
         "- Which frequencies: "
         + (f"{d.mismatch_band_hz[0]:.4g}–{d.mismatch_band_hz[1]:.4g} Hz (periods "
            f"{1 / max(d.mismatch_band_hz[1], 1e-12):.0f}–"
-           f"{1 / max(d.mismatch_band_hz[0], 1e-12):.0f} s)"
+           f"{1 / max(d.mismatch_band_hz[0], 1e-12):.0f} s"
+           + (" or longer: the excess reaches the slowest period the spectrum's segments "
+              "resolve" if d.details.get("mismatch_band_open_below") else "") + ")"
            if d.mismatch_band_hz else "none above the noise floor") + ".",
         f"- Nominal model ({m.source}): K = {m.gain:.3g}, τ = {m.time_constant:.3g} s, "
         f"θ = {m.dead_time:.3g} s" + (f", PI Kc = {m.kc:.3g}, Ti = {m.ti:.3g} s"

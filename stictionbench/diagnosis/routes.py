@@ -25,7 +25,8 @@ from .evidence import VALVE_HYPOTHESES
 from .gain import GainTest
 from .result import Diagnosis
 
-__all__ = ["DECISION_ROUTES", "RESOLUTION_FLOOR", "after_comparison", "decided_by",
+__all__ = ["DECISION_ROUTES", "DRIVE_CHECK", "DRIVE_EXEMPT", "RESOLUTION_FLOOR", "after_comparison",
+           "decided_by", "drive_answer",
            "floor_answer", "name_gain_error", "name_held_limit", "name_line",
            "pairing_answer", "pairing_test", "valve_family_note"]
 
@@ -189,6 +190,12 @@ def pairing_test(rec: Any, alpha: float, dead_time: float | None = None,
     t["p_value"] = float(min(1.0, len(runs) * t["p_value"]))
     t["windows"] = [int(r["lags"]) for r in runs]
     t["independent"] = bool(t["p_value"] >= alpha)
+    # one direction: the lags at which OP leads PV (the process's), same windows
+    lead = min(r["p_u_leads"] for r in runs)
+    t["p_op_leads"] = float(min(1.0, len(runs) * lead))
+    t["op_drives_pv"] = bool(t["p_op_leads"] < alpha)
+    for key in ("p_u_leads", "p_y_leads"):
+        t.pop(key, None)
     if t["independent"]:
         reach = max(t["windows"])
         t["warning"] = (f"OP and PV are independent by Haugh's test (p = {t['p_value']:.2g} "
@@ -229,6 +236,49 @@ def pairing_answer(d: Diagnosis, alpha: float) -> Diagnosis:
                   f"not below {alpha:g}): nothing explains PV from OP, so nothing is named"})
 
 
+#: whether :func:`drive_answer` is applied by default (``reports/diagnose/op_drives_pv.md``:
+#: the criterion fixed before its run, and its outcome)
+DRIVE_CHECK = False
+#: verdicts whose evidence is not OP's effect on PV, kept where OP does not drive PV: a line
+#: in PV itself (an external oscillation needs no path from OP); a limit read off OP held
+#: there is kept by the check's own rule (the loop is open while OP is held)
+DRIVE_EXEMPT = ("oscillatory_disturbance",)
+
+
+def drive_answer(d: Diagnosis, alpha: float) -> Diagnosis:
+    """``none`` in place of a physics whose evidence is OP's effect on PV where the
+    recording's OP does not drive its PV (``tests.op_pv_dependence.op_drives_pv``: the
+    lags at which OP leads PV show nothing, :func:`pairing_test`), in place; what was
+    named stays under ``details.op_not_driving_pv``.
+
+    Why: a controller answers PV whether or not its valve moves, so OP and PV stay
+    dependent (the pairing test rejects independence) in a loop whose valve is at rest,
+    and every hypothesis then explains PV from an OP that does not reach it: the
+    identified process fits the transmitter's noise (``reports/diagnose/op_drives_pv.md``).
+
+    Examples
+    --------
+    >>> from stictionbench.diagnosis.model import NominalModel
+    >>> d = Diagnosis(True, "dead_time", {"dead_time": 53.0}, {"nominal": 0.9,
+    ...               "improved": 0.7}, [], [], [], NominalModel(1.0, 10.0, 1.0), {},
+    ...               tests={"op_pv_dependence": {"p_op_leads": 0.5, "op_drives_pv": False}})
+    >>> drive_answer(d, 0.05).missing_physics, d.details["decided_by"]
+    ('none', 'op_not_driving_pv')
+    """
+    t = d.tests.get("op_pv_dependence") or {}
+    if d.missing_physics == "none" or t.get("op_drives_pv", True):
+        return d
+    if d.missing_physics in DRIVE_EXEMPT or d.tests.get("op_held_at_limit", {}).get("named"):
+        return d
+    return _hold_back(d, "op_not_driving_pv", {
+        "p_value": float(t["p_op_leads"]), "alpha": float(alpha),
+        "reason": f"OP does not lead PV at any lag (one direction of Haugh's test, "
+                  f"p = {t['p_op_leads']:.2g}, not below {alpha:g}): the controller "
+                  "answers PV but nothing OP does reaches it (a valve at rest, a "
+                  "controller whose output goes elsewhere), so nothing acting through "
+                  "OP is named"})
+
+
 #: the route by which :func:`answer` (or :func:`floor_answer`) reached the verdict,
 #: ``details.decided_by``, each with what it means (the summary's "Decided by" line)
 DECISION_ROUTES = {
@@ -254,6 +304,8 @@ DECISION_ROUTES = {
                          "rival of lower score",
     "resolution_floor": "the resolution floor: the nominal model already explains PV "
                         "within it, so what the tests named is held back",
+    "op_not_driving_pv": "the drive check: OP leads PV at no lag (one direction of "
+                         "Haugh's test), so nothing acting through OP is named",
     "op_pv_independent": "the pairing check: OP and PV are independent by Haugh's test, "
                          "so what the tests named from OP is held back",
 }
@@ -279,6 +331,8 @@ def decided_by(d: Diagnosis) -> str:
     """
     if d.details.get("op_pv_independent"):
         return "op_pv_independent"
+    if d.details.get("op_not_driving_pv"):
+        return "op_not_driving_pv"
     if d.details.get("resolution_floor"):
         return "resolution_floor"
     if d.tests.get("detection", {}).get("named"):
