@@ -114,9 +114,11 @@ def one(job: dict) -> dict:
 
 
 def exempt(predicted: pd.Series, decided_by: pd.Series) -> pd.Series:
-    """Verdicts the route would keep: a line in PV, a limit read off OP itself."""
-    return (predicted == "oscillatory_disturbance") | (
-        (predicted == "saturation") & (decided_by == "op_held_at_limit"))
+    """Verdicts the route would keep (:data:`~stictionbench.diagnosis.routes.DRIVE_EXEMPT`,
+    and a limit read off OP itself)."""
+    from stictionbench.diagnosis.routes import DRIVE_EXEMPT
+
+    return predicted.isin(DRIVE_EXEMPT) | (decided_by == "op_held_at_limit")
 
 
 def stored_verdicts() -> pd.DataFrame:

@@ -226,14 +226,24 @@ def pairing_answer(d: Diagnosis, alpha: float) -> Diagnosis:
     ('none', 'op_pv_independent')
     """
     t = d.tests.get("op_pv_dependence") or {}
-    if d.missing_physics == "none" or not t.get("independent"):
+    return _pairing_hold(d, "op_pv_independent", bool(t.get("independent")), (), {
+        "p_value": float(t.get("p_value", 1.0)), "alpha": float(alpha),
+        "reason": f"OP and PV are independent by Haugh's test (p = "
+                  f"{t.get('p_value', 1.0):.2g}, not below {alpha:g}): nothing explains "
+                  "PV from OP, so nothing is named"})
+
+
+def _pairing_hold(d: Diagnosis, key: str, fires: bool, exempt: tuple[str, ...],
+                  info: dict[str, Any]) -> Diagnosis:
+    """The pairing routes' shared rule: where the test ``fires``, ``none`` in place of a
+    named physics (:func:`_hold_back` under ``details[key]``), except a physics in
+    ``exempt`` and a saturation read off OP held at a limit (its evidence is OP itself,
+    as :func:`floor_answer`)."""
+    if not fires or d.missing_physics == "none" or d.missing_physics in exempt:
         return d
     if d.tests.get("op_held_at_limit", {}).get("named"):
-        return d  # read off OP itself (as floor_answer)
-    return _hold_back(d, "op_pv_independent", {
-        "p_value": float(t["p_value"]), "alpha": float(alpha),
-        "reason": f"OP and PV are independent by Haugh's test (p = {t['p_value']:.2g}, "
-                  f"not below {alpha:g}): nothing explains PV from OP, so nothing is named"})
+        return d
+    return _hold_back(d, key, info)
 
 
 #: whether :func:`drive_answer` is applied by default (``reports/diagnose/op_drives_pv.md``:
@@ -266,14 +276,11 @@ def drive_answer(d: Diagnosis, alpha: float) -> Diagnosis:
     ('none', 'op_not_driving_pv')
     """
     t = d.tests.get("op_pv_dependence") or {}
-    if d.missing_physics == "none" or t.get("op_drives_pv", True):
-        return d
-    if d.missing_physics in DRIVE_EXEMPT or d.tests.get("op_held_at_limit", {}).get("named"):
-        return d
-    return _hold_back(d, "op_not_driving_pv", {
-        "p_value": float(t["p_op_leads"]), "alpha": float(alpha),
+    fires = not t.get("op_drives_pv", True)
+    return _pairing_hold(d, "op_not_driving_pv", fires, DRIVE_EXEMPT, {
+        "p_value": float(t.get("p_op_leads", 1.0)), "alpha": float(alpha),
         "reason": f"OP does not lead PV at any lag (one direction of Haugh's test, "
-                  f"p = {t['p_op_leads']:.2g}, not below {alpha:g}): the controller "
+                  f"p = {t.get('p_op_leads', 1.0):.2g}, not below {alpha:g}): the controller "
                   "answers PV but nothing OP does reaches it (a valve at rest, a "
                   "controller whose output goes elsewhere), so nothing acting through "
                   "OP is named"})
