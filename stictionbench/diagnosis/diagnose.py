@@ -1162,9 +1162,11 @@ def _assemble(cmp: Comparison, loc: Location, fits: dict[str, Fit], verdict: Ver
 def _at_search_limit(cmp: Comparison) -> str | None:
     """What an identified time constant or dead time on the identification's search limit
     (:func:`.process.search_limits`: half and a quarter of the record) means, else
-    ``None``: the record holds no settling of the process, only a drift, so the model,
-    and every time scale built on it (the comparison band, the record-length warning),
-    are the record's length, not the loop's."""
+    ``None``: the identification found no optimum inside its range, so the model and
+    every time scale built on it (the comparison band, the record-length warning) are not
+    the loop's. On halves of four refinery windows flagged so, τ left the limit on three
+    (to values far apart: 57 s; 326 and 570 s; 20 and 3 s) and stayed on it, half of each
+    half, on one: a drift the record cannot resolve, or an identification that failed."""
     tau_max, theta_max = search_limits(len(cmp.rec.PV), cmp.rec.Ts)
     m = cmp.model
     hit = [f"{what} = {v:.4g} s" for what, v, top in (
@@ -1173,10 +1175,10 @@ def _at_search_limit(cmp: Comparison) -> str | None:
         return None
     return (f"the identified {' and '.join(hit)} sits on the identification's search limit "
             f"(τ up to half the record, {tau_max:.4g} s; θ up to a quarter, "
-            f"{theta_max:.4g} s): the record holds no settling of the process, only a "
-            "drift, so the identified model and the time scales built on it (the band, "
-            "the record-length warning) reflect the record's length, not the loop's; "
-            "give --model, or a record with set-point moves")
+            f"{theta_max:.4g} s): the identification found no optimum inside it, so the "
+            "identified model and the time scales built on it (the band, the "
+            "record-length warning) are not the loop's; give --model, or a record with "
+            "set-point moves")
 
 
 def closed_loop_replay(rec: Recording, m: NominalModel) -> dict[str, Any] | None:

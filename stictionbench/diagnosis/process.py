@@ -34,7 +34,7 @@ CRITERIA = ("output_error", "prediction_error")
 def search_limits(n: int, Ts: float) -> tuple[float, float]:
     """The largest ``(τ, θ)`` the identification searches on ``n`` samples at ``Ts``: half
     and a quarter of the record (at least two samples and one). A fit there has found no
-    settling inside the record, only a drift.
+    optimum inside the range (``diagnose``'s ``model_warning``).
 
     Examples
     --------
