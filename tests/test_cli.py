@@ -182,3 +182,19 @@ def test_worker_cleanup_warnings_stay_off_stderr(monkeypatch):
             "FileNotFoundError()'); warnings.warn('another warning')")
     err = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stderr
     assert "resource_tracker" not in err and "another warning" in err
+
+
+@pytest.mark.parametrize("command", ["diagnose", "estimate", "batch"])
+@pytest.mark.parametrize("lo", ["-1e3", "-.5", "-2.5E-1", "-1000", "-12.5"])
+def test_a_negative_op_range_is_read_in_any_float_spelling(command, lo):
+    argv = {"diagnose": ["diagnose", "r.csv", "--json", "o.json"],
+            "estimate": ["estimate", "r.csv"],
+            "batch": ["batch", "d", "--json", "o.json"]}[command]
+    args = build_parser(command).parse_args([*argv, "--op-range", lo, "100"])
+    assert args.op_range == [float(lo), 100.0]
+
+
+def test_an_op_range_missing_its_high_end_is_still_a_usage_error(capsys):
+    assert main(["diagnose", "r.csv", "--op-range", "-1e3", "--json", "o.json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "expected 2 arguments" in err[0]
