@@ -197,5 +197,7 @@ def add_command(sub) -> None:
                    help="answer none where OP does not drive PV: OP leads PV at no lag by "
                         "one direction of Haugh's test (tests.op_pv_dependence.op_drives_pv, "
                         "always given): a valve at rest, a controller whose output goes "
-                        "elsewhere (default: off; reports/diagnose/op_drives_pv.md)")
+                        "elsewhere, but also a regulatory loop whose valve moves PV, whose "
+                        "OP only the controller moves (default: off; reports/diagnose/"
+                        "op_drives_pv.md, drive_check_regulation.md)")
     p.set_defaults(func=cmd_diagnose)

@@ -340,6 +340,11 @@ def series_independence(y: np.ndarray, u: np.ndarray, lags: int = INDEPENDENCE_L
     one direction of the dependence (Pierce & Haugh): in a closed loop whose OP (``u``)
     does not reach its PV (``y``) — a valve at rest, a controller in manual — PV still
     drives OP through the controller, at lags ``≤ 0``, and nothing leads the other way.
+    Nor, in a regulatory loop whose valve does move PV, when nothing but the controller's
+    linear answer moves OP: OP is then a function of PV's past and adds nothing to PV's
+    prediction (Caines & Chan 1975), so the one-sided test sees OP's effect only where OP
+    is excited beyond it (set-point changes, a nonlinearity, a dither), and only with each
+    series fully whitened (``reports/diagnose/drive_check_regulation.md``).
 
     Returns
     -------
@@ -353,7 +358,9 @@ def series_independence(y: np.ndarray, u: np.ndarray, lags: int = INDEPENDENCE_L
     L. D. Haugh, "Checking the independence of two covariance-stationary time series: a
     univariate residual cross-correlation approach", *JASA* 71 (1976) 378–385; Box,
     Jenkins & Reinsel, *Time Series Analysis* (4th ed., 2008), §11.1; D. A. Pierce and
-    L. D. Haugh, "Causality in temporal systems", *J. Econometrics* 5 (1977) 265–293.
+    L. D. Haugh, "Causality in temporal systems", *J. Econometrics* 5 (1977) 265–293;
+    P. E. Caines and C. W. Chan, "Feedback between stationary stochastic processes",
+    *IEEE Trans. Automatic Control* 20 (1975) 498–508.
 
     Examples
     --------

@@ -266,6 +266,12 @@ def drive_answer(d: Diagnosis, alpha: float) -> Diagnosis:
     and every hypothesis then explains PV from an OP that does not reach it: the
     identified process fits the transmitter's noise (``reports/diagnose/op_drives_pv.md``).
 
+    Why it is off by default: at a constant set point nothing but the controller moves
+    OP, OP is then a function of PV's past, and OP's past adds nothing to PV's prediction
+    even where the valve moves PV (feedback between time series; Caines & Chan, *IEEE
+    TAC* 20 (1975) 498). A healthy regulatory loop fires as a valve at rest does
+    (``reports/diagnose/drive_check_regulation.md``).
+
     Examples
     --------
     >>> from stictionbench.diagnosis.model import NominalModel
