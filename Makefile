@@ -55,6 +55,7 @@ real: venv
 	$(BIN)/stictionbench oscillation-benchmark $(DATA)/isdb-oscillation/benchmark.mat --out reports/real/oscillation
 	$(BIN)/python experiments/fast_loops.py
 	$(BIN)/python experiments/regulatory_bias.py
+	$(BIN)/python experiments/residual_tests_calibration.py --jobs 2
 	$(BIN)/python experiments/pem_identification.py
 	$(BIN)/python experiments/limit_cycles.py
 	$(BIN)/python experiments/isdb_priors.py --data $(DATA)/isdb

@@ -1171,3 +1171,50 @@ def test_a_dead_band_named_on_the_stiction_fit_says_so(tmp_path, capsys):
     note = out["details"]["valve_family_note"]
     assert "named on the stiction fit" in note and "dead band's own fit" in note
     assert "warning: a sticky valve is named on the stiction fit" in capsys.readouterr().err
+
+
+def test_the_residual_analysis_whitens_a_drifting_load_with_its_arma_family(monkeypatch):
+    # white measurement noise on a slow load is an ARMA process: a short AR leaves its
+    # innovations coloured and Ljung-Box rejects a right model; the residual analysis's
+    # own noise model (evidence.RESIDUAL_NOISE_FAMILY, ARMA family) whitens it far better
+    # (reports/diagnose/residual_tests_calibration.md measures it on simulated loops)
+    from scipy.signal import lfilter
+
+    from stictionbench.diagnosis import evidence
+
+    rows = [{"physics": "none", "lr_statistic": 0.0, "p_value": 1.0, "df": 0}]
+    n = 3000
+    block = (np.arange(n) // 300) % 2
+    train, val = np.flatnonzero(block == 0), np.flatnonzero(block == 1)
+    rejected = {}
+    for family in ("ar", "arma"):
+        monkeypatch.setattr(evidence, "RESIDUAL_NOISE_FAMILY", family)
+        rejected[family] = 0
+        for seed in range(20):
+            rng = np.random.default_rng(seed)
+            oe = 0.05 * lfilter([1.0], [1.0, -0.999], rng.normal(size=n)) \
+                + 0.2 * rng.normal(size=n)
+            t = evidence._residual_tests({}, rows, "none", {"none": oe}, train,
+                                         rng.normal(size=n), 1.0, 0.0, val)
+            rejected[family] += t["whiteness"]["p_value"] < 0.05
+        assert t["whiteness"]["whitened_by"] == t["independence_from_op"]["whitened_by"]
+    assert rejected["arma"] <= 8 and rejected["ar"] >= rejected["arma"] + 6
+
+
+def test_the_summary_says_a_fast_pi_alone_correlates_the_residual_with_past_op():
+    from stictionbench.diagnosis.model import NominalModel
+    from stictionbench.diagnosis.report import _residual_lines
+    from stictionbench.diagnosis.result import Diagnosis
+
+    tests = {"whiteness": {"p_value": 0.3, "whitened_by": "ARMA"},
+             "independence_from_op": {"p_value": 1e-4, "whitened_by": "ARMA"}}
+
+    def line(period):
+        d = Diagnosis(True, "none", {}, {"nominal": 0.5, "improved": 0.5}, [], [], [],
+                      NominalModel(1.0, 10.0, 1.0, controller_period=period,
+                                   sample_time=1.0), {}, tests=tests)
+        return _residual_lines(d)[0]
+
+    assert "correlated with past OP" in line(0.1) and "PI faster than the record" in line(0.1)
+    assert "its period is not given" in line(None)
+    assert "PI faster" not in line(1.0) and "whitened by its own ARMA" in line(1.0)

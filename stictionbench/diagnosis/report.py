@@ -265,12 +265,21 @@ def _residual_lines(d: Diagnosis) -> list[str]:
     left = [what for what, t in (("not white", w), ("correlated with past OP", u))
             if t["p_value"] < ALPHA]
     which = "nominal" if d.missing_physics == "none" else d.missing_physics
-    return [f"- Residual analysis of the {which} model (validation blocks): "
-            f"whiteness p = {w['p_value']:.2g}, independence from past OP p = "
-            f"{u['p_value']:.2g}" + (f"; its innovations are {' and '.join(left)}, so "
-                                     "something the vocabulary does not hold (or a noise "
-                                     "model too simple) is left unexplained"
-                                     if left else "") + "."]
+    said = ""
+    if left:
+        said = (f"; its innovations are {' and '.join(left)}, so something the vocabulary "
+                "does not hold (or a noise model too simple) is left unexplained")
+        pc, ts = d.model.controller_period, d.model.sample_time
+        if u["p_value"] < ALPHA and (pc is None or ts is None or pc < 0.999 * ts):
+            said += (" — or only a PI faster than the record"
+                     + (" (its period is not given)" if pc is None or ts is None else "")
+                     + ": fed the OP snapshots, even the exact model leaves a residual "
+                     "that follows OP's moves between samples "
+                     "(reports/diagnose/residual_tests_calibration.md)")
+    return [f"- Residual analysis of the {which} model (validation blocks, whitened by "
+            f"its own {w.get('whitened_by', 'AR')} noise model): whiteness p = "
+            f"{w['p_value']:.2g}, independence from past OP p = {u['p_value']:.2g}"
+            + said + "."]
 
 
 def summary_markdown(d: Diagnosis) -> str:
