@@ -150,8 +150,9 @@ concealed: venv
 # Hammerstein detector on fresh recordings (detection_independent), and the saturation's
 # limits bounded by OP's median against the whole range, every recording both ways
 # (saturation_bounds, about 50 minutes), and one direction of Haugh's test, OP leading PV
-# (op_drives_pv) and why it fires on loops whose valve moves PV (drive_check_regulation;
-# about 610 minutes on 2 cores in all)
+# (op_drives_pv) and why it fires on loops whose valve moves PV (drive_check_regulation),
+# and a valve gated by the given model's process refitted (process_refit_gate, about 10
+# minutes; about 620 minutes on 2 cores in all)
 BLIND := .cache/blindgen
 independent: venv
 	for s in a:blind_generator:1000 b:blind_generator:5000 c:blind_generator_c:7000 \
@@ -219,6 +220,7 @@ independent: venv
 	$(BIN)/python experiments/saturation_bounds.py --seeds 10 --jobs 2
 	$(BIN)/python experiments/op_drives_pv.py --jobs 2
 	$(BIN)/python experiments/drive_check_regulation.py --jobs 2
+	$(BIN)/python experiments/process_refit_gate.py --jobs 2
 
 # the first release (the package at the last commit before issue 10) run as a user ran it
 # then on every independent set, beside today's verdicts of `make independent`: the anchor

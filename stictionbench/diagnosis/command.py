@@ -16,6 +16,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..validation import check_writable, refuse_overwrite
     from .diagnose import RESOLUTION_FLOOR, WARNING_KEYS, diagnose
     from .model import load_model
+    from .refit import PROCESS_REFIT
     from .routes import DRIVE_CHECK
 
     if not args.json:
@@ -64,7 +65,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                  test_noise_family=args.test_noise_family, line_test=args.line_test,
                  intersample=args.intersample is not False, resolution_floor=floor,
                  detection=args.detection, pairing_check=args.pairing_check,
-                 drive_check=DRIVE_CHECK if args.drive_check is None else args.drive_check)
+                 drive_check=DRIVE_CHECK if args.drive_check is None else args.drive_check,
+                 process_refit=(PROCESS_REFIT if args.process_refit is None
+                                else args.process_refit))
     payload = d.to_json()
     payload.update(source_keys(args.recording, rec))
     try:  # serialised before anything is written: no report without its JSON
@@ -200,4 +203,10 @@ def add_command(sub) -> None:
                         "elsewhere, but also a regulatory loop whose valve moves PV, whose "
                         "OP only the controller moves (default: off; reports/diagnose/"
                         "op_drives_pv.md, drive_check_regulation.md)")
+    p.add_argument("--process-refit", action=argparse.BooleanOptionalAction, default=None,
+                   help="with --model, where a valve is named: re-identify the model's "
+                        "process from the recording and diagnose again; a warning where "
+                        "the valve is then not named (it may be the model's own error; "
+                        "details.process_refit; default: off, about 1-2 s more; "
+                        "reports/concealed/process_refit_gate.md)")
     p.set_defaults(func=cmd_diagnose)

@@ -99,6 +99,7 @@ from .process import (
     search_limits,
     setpoint_excitation,
 )
+from .refit import PROCESS_REFIT, process_refit_check
 from .result import Diagnosis
 from .rival import rival_test
 from .routes import (
@@ -708,7 +709,8 @@ def own_resolution(rec: Recording, model_given: bool) -> frozenset[str]:
 #: prints them on stderr, the report lists them): regulatory data without a model, a
 #: nominal model that does not explain PV, a record too short for the loop's speed
 WARNING_KEYS = ("warning", "model_warning", "record_warning", "limit_warning",
-                "controller_rate_warning", "pairing_warning", "valve_family_note")
+                "controller_rate_warning", "pairing_warning", "valve_family_note",
+                "refit_warning")
 
 #: a PI executing this many times per recorded sample or more gets the controller-rate
 #: warning (:func:`controller_rate_warning`)
@@ -798,7 +800,8 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
              intersample: bool = True,
              resolution_floor: float = RESOLUTION_FLOOR,
              alignment: float = 1.0, detection: bool = False,
-             pairing_check: bool = False, drive_check: bool = DRIVE_CHECK) -> Diagnosis:
+             pairing_check: bool = False, drive_check: bool = DRIVE_CHECK,
+             process_refit: bool = PROCESS_REFIT) -> Diagnosis:
     """Name the physics missing from ``model`` that best explains ``rec``:
     compare → locate → hypothesise → fit → validate (see the module docstring).
 
@@ -913,6 +916,12 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         (``tests.op_pv_dependence.op_drives_pv``, :func:`.routes.drive_answer`; what was
         named stays under ``details.op_not_driving_pv``); default
         :data:`.routes.DRIVE_CHECK` (``reports/diagnose/op_drives_pv.md``).
+    process_refit : bool
+        Against a given model, where a valve is named: re-identify the model's process
+        from the recording and diagnose again (:func:`.refit.process_refit_check`;
+        ``details.process_refit``, and ``details.refit_warning`` where the valve is not
+        named again). Informs, does not decide; default :data:`.refit.PROCESS_REFIT`
+        (``reports/concealed/process_refit_gate.md``).
 
     Returns
     -------
@@ -977,6 +986,14 @@ def diagnose(rec: Recording, model: NominalModel | None = None, *, alpha: float 
         d = pairing_answer(d, alpha)
     if drive_check:
         d = drive_answer(d, alpha)
+    if process_refit and model is not None:
+        d = process_refit_check(d, rec, model, lambda m: diagnose(
+            rec, m, alpha=alpha, min_improvement=min_improvement, hypotheses=hypotheses,
+            op_range=op_range, linear_input_gate=linear_input_gate,
+            test_highpass_order=test_highpass_order, noise_family=noise_family,
+            test_noise_family=test_noise_family, line_test=line_test,
+            intersample=intersample, resolution_floor=resolution_floor,
+            alignment=alignment, pairing_check=pairing_check, drive_check=drive_check))
     if (note := valve_family_note(d)) is not None:
         d.details["valve_family_note"] = note
     d.details["seconds"] = time.perf_counter() - t0
