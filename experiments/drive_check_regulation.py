@@ -61,7 +61,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import jobs_reuse_args, publish, rate_line  # noqa: E402
+from fresh_recordings import jobs_reuse_args, publish, rate_line, stored_or_made  # noqa: E402
 
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -405,15 +405,9 @@ def report(df: pd.DataFrame) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = jobs_reuse_args(__doc__, "report from the stored drive_check_regulation.csv", argv)
-    csv = STEM.with_suffix(".csv")
-    if args.reuse:
-        if not csv.is_file():
-            print(f"drive_check_regulation: {csv} missing (run without --reuse)",
-                  file=sys.stderr)
-            return 2
-        df = pd.read_csv(csv)
-    else:
-        df = _run_all(cases(), args.jobs)
+    df = stored_or_made(STEM, args.reuse, lambda: _run_all(cases(), args.jobs))
+    if df is None:
+        return 2
     _figure(df[df.kind == "sim"], STEM.with_suffix(".png"))
     publish(df, report(df), STEM)
     return 0

@@ -98,6 +98,20 @@ def run(fn: Callable[..., dict], todo: list[tuple], jobs: int) -> pd.DataFrame:
     return pd.DataFrame(list(tqdm(gen, total=len(todo), desc="diagnose", unit="rec")))
 
 
+def stored_or_made(stem: Path, reuse: bool,
+                   make: Callable[[], pd.DataFrame]) -> pd.DataFrame | None:
+    """An experiment's per-recording table: with ``reuse`` the stored ``stem.csv`` (None
+    and a one-line message naming the experiment when it is missing: exit 2), else
+    ``make()``."""
+    csv = stem.with_suffix(".csv")
+    if not reuse:
+        return make()
+    if not csv.is_file():
+        print(f"{stem.name}: {csv} missing (run without --reuse)", file=sys.stderr)
+        return None
+    return pd.read_csv(csv)
+
+
 def stored_or_run(stem: Path, reuse: bool, fn: Callable[..., dict],
                   todo: Callable[[], list[tuple]], jobs: int,
                   sort_by: list[str]) -> pd.DataFrame:

@@ -55,7 +55,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import jobs_reuse_args, publish, run  # noqa: E402
+from fresh_recordings import jobs_reuse_args, publish, run, stored_or_made  # noqa: E402
 
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -231,19 +231,13 @@ def report(df: pd.DataFrame) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = jobs_reuse_args(__doc__, "report from the stored process_refit_gate.csv", argv)
-    csv = STEM.with_suffix(".csv")
-    if args.reuse:
-        if not csv.is_file():
-            print(f"process_refit_gate: {csv} missing (run without --reuse)",
-                  file=sys.stderr)
-            return 2
-        df = pd.read_csv(csv)
-    else:
-        if not STORED:
-            print("process_refit_gate: no stored set verdicts (run make independent)",
-                  file=sys.stderr)
-            return 2
-        df = run(_job, cases(), args.jobs)
+    if not args.reuse and not STORED:
+        print("process_refit_gate: no stored set verdicts (run make independent)",
+              file=sys.stderr)
+        return 2
+    df = stored_or_made(STEM, args.reuse, lambda: run(_job, cases(), args.jobs))
+    if df is None:
+        return 2
     publish(df, report(df), STEM, float_format="%.6g")
     return 0
 

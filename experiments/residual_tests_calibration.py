@@ -54,7 +54,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-from fresh_recordings import jobs_reuse_args, publish, rate_bars, run  # noqa: E402
+from fresh_recordings import jobs_reuse_args, publish, rate_bars, run, stored_or_made  # noqa: E402
 
 from stictionbench.rates import rate_text  # noqa: E402
 from stictionbench.reports.tables import to_markdown  # noqa: E402
@@ -217,17 +217,11 @@ def report(df: pd.DataFrame) -> str:
 def main(argv: list[str] | None = None) -> int:
     args = jobs_reuse_args(__doc__, "report from the stored residual_tests_calibration.csv",
                            argv)
-    csv = STEM.with_suffix(".csv")
-    if args.reuse:
-        if not csv.is_file():
-            print(f"residual_tests_calibration: {csv} missing (run without --reuse)",
-                  file=sys.stderr)
-            return 2
-        df = pd.read_csv(csv)
-    else:
-        todo = [(load, hc, s) for load in LOADS for hc in PI_PERIODS for s in range(SEEDS)]
-        todo += [(load, PI_WRONG, s, TAU_WRONG) for load in LOADS for s in range(SEEDS)]
-        df = run(one, todo, args.jobs)
+    todo = [(load, hc, s) for load in LOADS for hc in PI_PERIODS for s in range(SEEDS)]
+    todo += [(load, PI_WRONG, s, TAU_WRONG) for load in LOADS for s in range(SEEDS)]
+    df = stored_or_made(STEM, args.reuse, lambda: run(one, todo, args.jobs))
+    if df is None:
+        return 2
     _figure(df, STEM.with_suffix(".png"))
     publish(df, report(df), STEM, float_format="%.6g")
     return 0
