@@ -1210,9 +1210,12 @@ def test_the_summary_says_a_fast_pi_alone_correlates_the_residual_with_past_op()
              "independence_from_op": {"p_value": 1e-4, "whitened_by": "ARMA"}}
 
     def line(period):
+        # the diagnosis's own judgement of a PI faster than the record: its warning
+        # (controller_rate_warning; a model's sample_time is usually not given)
+        fast = {} if period is None or period >= 1.0 else {"controller_rate_warning": "x"}
         d = Diagnosis(True, "none", {}, {"nominal": 0.5, "improved": 0.5}, [], [], [],
-                      NominalModel(1.0, 10.0, 1.0, controller_period=period,
-                                   sample_time=1.0), {}, tests=tests)
+                      NominalModel(1.0, 10.0, 1.0, controller_period=period), {},
+                      details=fast, tests=tests)
         return _residual_lines(d)[0]
 
     assert "correlated with past OP" in line(0.1) and "PI faster than the record" in line(0.1)

@@ -55,6 +55,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     floor = RESOLUTION_FLOOR if args.resolution_floor is None else args.resolution_floor
     if not (floor >= 0 and math.isfinite(floor)):
         raise InputError(f"--resolution-floor: expected a validation NRMSE >= 0, got {floor}")
+    if args.process_refit and model is None:
+        raise InputError("--process-refit needs --model: it re-identifies a given model's "
+                         "process")
     if args.slip_jump_bootstrap < 0:
         raise InputError(f"--slip-jump-bootstrap: expected a number of null recordings "
                          f">= 0, got {args.slip_jump_bootstrap}")

@@ -269,10 +269,12 @@ def _residual_lines(d: Diagnosis) -> list[str]:
     if left:
         said = (f"; its innovations are {' and '.join(left)}, so something the vocabulary "
                 "does not hold (or a noise model too simple) is left unexplained")
-        pc, ts = d.model.controller_period, d.model.sample_time
-        if u["p_value"] < ALPHA and (pc is None or ts is None or pc < 0.999 * ts):
+        # the PI faster than the record as the diagnosis judged it (the controller-rate
+        # warning), or its period not given
+        pc = d.model.controller_period
+        if u["p_value"] < ALPHA and (pc is None or d.details.get("controller_rate_warning")):
             said += (" — or only a PI faster than the record"
-                     + (" (its period is not given)" if pc is None or ts is None else "")
+                     + (" (its period is not given)" if pc is None else "")
                      + ": fed the OP snapshots, even the exact model leaves a residual "
                      "that follows OP's moves between samples "
                      "(reports/diagnose/residual_tests_calibration.md)")
