@@ -42,11 +42,11 @@ COMMAND_MODULES: dict[str, tuple[str, ...]] = {
 class _Parser(argparse.ArgumentParser):
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
-        # A negative number in any float spelling (-1e3, -.5, -2.5E-1) is a value, not an
+        # A negative number in any float spelling (-1e3, -.5, -2.5E-1, -inf) is a value, not an
         # option: Python 3.11's argparse knows only -12 and -1.5, so `--op-range -1e3 100`
         # failed with "expected 2 arguments" (later Pythons widened the same pattern).
         self._negative_number_matcher = re.compile(
-            r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+            r"^-((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|[iI][nN][fF]([iI][nN][iI][tT][yY])?)$")
 
     def error(self, message: str) -> None:  # argparse's own usage errors: exit 2, one line
         raise InputError(message)

@@ -127,7 +127,8 @@ def given_range(lo: float, hi: float, what: str) -> tuple[float, float]:
 
     lo, hi = float(lo), float(hi)
     if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
-        raise InputError(f"{what}: expected LO HI with HI > LO, got {lo:g} {hi:g}")
+        raise InputError(f"{what}: expected two finite numbers LO HI with HI > LO, got "
+                         f"{lo:g} {hi:g}")
     return lo, hi
 
 

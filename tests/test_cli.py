@@ -198,3 +198,15 @@ def test_an_op_range_missing_its_high_end_is_still_a_usage_error(capsys):
     assert main(["diagnose", "r.csv", "--op-range", "-1e3", "--json", "o.json"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "expected 2 arguments" in err[0]
+
+
+@pytest.mark.parametrize("lo", ["-inf", "-Infinity"])
+def test_an_infinite_op_range_is_refused_as_a_range_not_as_an_option(lo, tmp_path,
+                                                                      capsys):
+    csv = tmp_path / "r.csv"
+    csv.write_text("t,PV,OP\n" + "".join(f"{k},{k % 7},{k % 5}\n" for k in range(300)))
+    out = tmp_path / "o.json"
+    assert main(["diagnose", str(csv), "--op-range", lo, "100", "--json", str(out)]) == 2
+    assert not out.exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "two finite numbers" in err[0]
